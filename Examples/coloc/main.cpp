@@ -1,0 +1,53 @@
+// coloc: the command-line tool. Exit codes: 0 success, 1 failure (bad input, failed run),
+// 2 usage error. Results go to stdout (text or --json), logs and progress to stderr.
+
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+#include <exception>
+#include <iostream>
+
+#include "Examples/coloc/cli_common.hpp"
+#include "Examples/coloc/verbs.hpp"
+#include "slam/core/error.hpp"
+
+int main(int argc, char** argv) {
+  // Logs go to stderr so stdout stays machine-readable.
+  spdlog::set_default_logger(spdlog::stderr_color_mt("coloc"));
+  spdlog::set_pattern("[%H:%M:%S.%e] [%^%l%$] %v");
+
+  CLI::App app{"coloc: co-location of XR users with laser-scanned buildings"};
+  app.require_subcommand(1);
+  bool verbose = false;
+  app.add_flag("-v,--verbose", verbose, "Debug logging");
+  app.parse_complete_callback([&] {
+    if (verbose) spdlog::set_level(spdlog::level::debug);
+  });
+
+  coloc::cli::add_demo_verb(app);
+  coloc::cli::add_eval_verb(app);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);
+    return 2;
+  } catch (const coloc::Error& e) {
+    std::cerr << "error: " << e.what() << '\n';
+    return 1;
+  } catch (const coloc::cli::CliFailure& e) {
+    std::cerr << "failed: " << e.what() << '\n';
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << '\n';
+    return 1;
+  }
+  return 0;
+}

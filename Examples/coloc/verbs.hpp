@@ -1,0 +1,13 @@
+#pragma once
+// Each verb of the `coloc` CLI adds its subcommand to the app. A verb's callback returns
+// normally on success and throws coloc::Error (exit 1) or CliFailure on failure; usage errors
+// are CLI11 parse errors (exit 2).
+
+#include <CLI/CLI.hpp>
+
+namespace coloc::cli {
+
+void add_eval_verb(CLI::App& app);
+void add_demo_verb(CLI::App& app);
+
+}  // namespace coloc::cli

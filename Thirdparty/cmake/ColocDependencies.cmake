@@ -1,0 +1,42 @@
+# Imported targets for the Debian packages coloc builds against. Every package here is installed
+# by scripts/install_deps.sh; a missing one stops configuration with the package to install.
+include_guard(GLOBAL)
+find_package(PkgConfig REQUIRED)
+
+macro(coloc_require_package name debian_package)
+  find_package(${name} ${ARGN} QUIET)
+  if(NOT ${name}_FOUND)
+    message(FATAL_ERROR "${name} not found: install the Debian package '${debian_package}' "
+                        "(scripts/install_deps.sh does this)")
+  endif()
+endmacro()
+
+coloc_require_package(Eigen3 libeigen3-dev 3.4 NO_MODULE)
+coloc_require_package(OpenCV "libopencv-dev libopencv-contrib-dev" 4.5
+                      COMPONENTS core imgproc imgcodecs features2d calib3d aruco)
+coloc_require_package(Ceres libceres-dev)
+coloc_require_package(spdlog libspdlog-dev)
+coloc_require_package(CLI11 libcli11-dev)
+coloc_require_package(pugixml libpugixml-dev)
+coloc_require_package(SQLite3 libsqlite3-dev)
+coloc_require_package(Threads libc6-dev)
+
+# liblo and OSMesa ship only pkg-config files on Debian.
+pkg_check_modules(LIBLO IMPORTED_TARGET liblo>=0.31)
+if(NOT LIBLO_FOUND)
+  message(FATAL_ERROR "liblo not found: install the Debian package 'liblo-dev'")
+endif()
+add_library(coloc::liblo ALIAS PkgConfig::LIBLO)
+
+pkg_check_modules(OSMESA IMPORTED_TARGET osmesa)
+if(NOT OSMESA_FOUND)
+  message(FATAL_ERROR "OSMesa not found: install the Debian package 'libosmesa6-dev'")
+endif()
+add_library(coloc::osmesa ALIAS PkgConfig::OSMESA)
+
+if(COLOC_BUILD_TESTS)
+  coloc_require_package(GTest "libgtest-dev libgmock-dev")
+endif()
+if(COLOC_BUILD_BENCHMARKS)
+  coloc_require_package(benchmark libbenchmark-dev)
+endif()

@@ -1,0 +1,93 @@
+#include "slam/core/trajectory.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+
+#include "slam/core/error.hpp"
+
+namespace coloc {
+
+Trajectory read_tum_trajectory(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw Error("cannot open trajectory file", {.file = path.string()});
+  Trajectory trajectory;
+  std::string line;
+  std::int64_t line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    std::replace(line.begin(), line.end(), ',', ' ');
+    std::istringstream fields(line);
+    double v[8];
+    int n = 0;
+    while (n < 8 && fields >> v[n]) ++n;
+    if (n != 8) {
+      throw Error("expected 8 numbers 't tx ty tz qx qy qz qw', read " + std::to_string(n),
+                  {.file = path.string(), .line = line_no});
+    }
+    const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
+    if (!std::isfinite(q.norm()) || std::abs(q.norm() - 1.0) > 1e-2) {
+      throw Error("quaternion is not of unit norm (|q| = " + std::to_string(q.norm()) + ")",
+                  {.file = path.string(), .line = line_no});
+    }
+    trajectory.push_back({v[0], SE3(q, Eigen::Vector3d(v[1], v[2], v[3]))});
+  }
+  std::stable_sort(trajectory.begin(), trajectory.end(),
+                   [](const StampedPose& a, const StampedPose& b) {
+                     return a.timestamp < b.timestamp;
+                   });
+  return trajectory;
+}
+
+void write_tum_trajectory(const std::filesystem::path& path, const Trajectory& trajectory) {
+  std::ofstream out(path);
+  if (!out) throw Error("cannot write trajectory file", {.file = path.string()});
+  out << "# timestamp tx ty tz qx qy qz qw (world_from_cam)\n";
+  for (const auto& p : trajectory) {
+    const Eigen::Vector3d& t = p.world_from_cam.translation();
+    const Eigen::Quaterniond& q = p.world_from_cam.quaternion();
+    out << std::fixed << std::setprecision(6) << p.timestamp << ' ' << std::setprecision(9)
+        << t.x() << ' ' << t.y() << ' ' << t.z() << ' ' << q.x() << ' ' << q.y() << ' ' << q.z()
+        << ' ' << q.w() << '\n';
+  }
+  if (!out) throw Error("write failed", {.file = path.string()});
+}
+
+std::vector<std::pair<std::size_t, std::size_t>> associate_by_time(const Trajectory& a,
+                                                                   const Trajectory& b,
+                                                                   double max_dt) {
+  // Candidate pairs within max_dt (b is sorted, so a window per a), then greedy by |dt|.
+  struct Candidate {
+    double dt;
+    std::size_t i;
+    std::size_t j;
+  };
+  std::vector<Candidate> candidates;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const double t = a[i].timestamp;
+    auto it = std::lower_bound(b.begin(), b.end(), t - max_dt,
+                               [](const StampedPose& p, double v) { return p.timestamp < v; });
+    for (; it != b.end() && it->timestamp <= t + max_dt; ++it) {
+      const auto j = static_cast<std::size_t>(it - b.begin());
+      candidates.push_back({std::abs(it->timestamp - t), i, j});
+    }
+  }
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const Candidate& x, const Candidate& y) { return x.dt < y.dt; });
+  std::vector<char> used_a(a.size(), 0);
+  std::vector<char> used_b(b.size(), 0);
+  std::vector<std::pair<std::size_t, std::size_t>> pairs;
+  for (const auto& c : candidates) {
+    if (used_a[c.i] || used_b[c.j]) continue;
+    used_a[c.i] = used_b[c.j] = 1;
+    pairs.emplace_back(c.i, c.j);
+  }
+  std::sort(pairs.begin(), pairs.end());
+  return pairs;
+}
+
+}  // namespace coloc

@@ -1,0 +1,31 @@
+#pragma once
+// Trajectories in the TUM format: one pose per line, "t tx ty tz qx qy qz qw", where t is in
+// seconds and the pose is world_from_cam (camera-to-world), as the TUM benchmark, evo and
+// ORB-SLAM write them. Lines starting with '#' are comments.
+
+#include <filesystem>
+#include <vector>
+
+#include "slam/core/se3.hpp"
+
+namespace coloc {
+
+struct StampedPose {
+  double timestamp = 0.0;  // seconds
+  SE3 world_from_cam;
+};
+
+using Trajectory = std::vector<StampedPose>;
+
+// Throws coloc::Error naming the file and line for unreadable files or malformed lines.
+Trajectory read_tum_trajectory(const std::filesystem::path& path);
+// Writes with full precision (timestamps to 1e-6 s, 9 significant digits for poses).
+void write_tum_trajectory(const std::filesystem::path& path, const Trajectory& trajectory);
+
+// Pairs a[i] with the b pose nearest in time within max_dt seconds, each b used at most once
+// (the greedy nearest-first matching of the TUM tools' associate.py). Result: index pairs.
+std::vector<std::pair<std::size_t, std::size_t>> associate_by_time(const Trajectory& a,
+                                                                   const Trajectory& b,
+                                                                   double max_dt);
+
+}  // namespace coloc

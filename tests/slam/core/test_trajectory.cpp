@@ -1,0 +1,62 @@
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "slam/core/error.hpp"
+#include "slam/core/trajectory.hpp"
+#include "tests/testing/data.hpp"
+
+namespace coloc {
+namespace {
+
+TEST(Trajectory, WriteReadRoundTrip) {
+  const auto dir = testing::temp_dir("trajectory");
+  Trajectory t;
+  for (int i = 0; i < 5; ++i) {
+    t.push_back({1305031102.175304 + 0.033 * i,
+                 SE3::exp((Vector6d() << 0.1 * i, 0.2, -0.3, 0.01 * i, 0.5, -0.2).finished())});
+  }
+  write_tum_trajectory(dir / "t.txt", t);
+  const Trajectory back = read_tum_trajectory(dir / "t.txt");
+  ASSERT_EQ(back.size(), t.size());
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    EXPECT_NEAR(back[i].timestamp, t[i].timestamp, 1e-6);
+    EXPECT_LT((back[i].world_from_cam.matrix() - t[i].world_from_cam.matrix()).norm(), 1e-8);
+  }
+}
+
+TEST(Trajectory, MalformedLineNamesFileAndLine) {
+  const auto dir = testing::temp_dir("trajectory_bad");
+  std::ofstream(dir / "bad.txt") << "# comment\n1 0 0 0 0 0 0 1\n2 0 0 0 0 0\n";
+  try {
+    read_tum_trajectory(dir / "bad.txt");
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().line, 3);
+    EXPECT_NE(std::string(e.what()).find("bad.txt:3"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(read_tum_trajectory(dir / "missing.txt"), Error);
+}
+
+TEST(Trajectory, ReadsRealTumGroundTruth) {
+  COLOC_REQUIRE_DATA(dir, "tum_fr1_xyz_37f");
+  const Trajectory gt = read_tum_trajectory(dir / "groundtruth.txt");
+  ASSERT_GT(gt.size(), 100u);
+  for (std::size_t i = 1; i < gt.size(); ++i) EXPECT_GE(gt[i].timestamp, gt[i - 1].timestamp);
+}
+
+TEST(Trajectory, AssociationIsGreedyNearestFirst) {
+  Trajectory a;
+  Trajectory b;
+  for (double t : {0.0, 0.1, 0.2, 0.3}) a.push_back({t, SE3()});
+  for (double t : {0.005, 0.095, 0.12, 0.5}) b.push_back({t, SE3()});
+  const auto pairs = associate_by_time(a, b, 0.02);
+  ASSERT_EQ(pairs.size(), 2u);
+  EXPECT_EQ(pairs[0].first, 0u);
+  EXPECT_EQ(pairs[0].second, 0u);
+  EXPECT_EQ(pairs[1].first, 1u);
+  EXPECT_EQ(pairs[1].second, 1u);
+}
+
+}  // namespace
+}  // namespace coloc

@@ -1,0 +1,32 @@
+#include "tests/testing/data.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <string>
+
+namespace coloc::testing {
+
+std::filesystem::path shared_data_dir() {
+  if (const char* env = std::getenv("COLOC_DATA"); env != nullptr && *env != '\0') {
+    return env;
+  }
+  return std::filesystem::path(COLOC_SOURCE_DIR).parent_path() / "shared" / "data";
+}
+
+std::filesystem::path shared_data(const std::filesystem::path& relative) {
+  std::filesystem::path p = shared_data_dir() / relative;
+  return std::filesystem::exists(p) ? p : std::filesystem::path{};
+}
+
+std::filesystem::path temp_dir(const std::string& name) {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::string unique = name;
+  if (info != nullptr) unique += std::string("_") + info->test_suite_name() + "_" + info->name();
+  std::filesystem::path dir = std::filesystem::temp_directory_path() / "coloc_tests" / unique;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+}  // namespace coloc::testing
