@@ -1,0 +1,219 @@
+#include "markers/detector.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <array>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <utility>
+
+#include "markers/dictionary.hpp"
+#include "slam/core/error.hpp"
+
+namespace coloc::markers {
+namespace {
+
+// Every key cv::aruco::DetectorParameters::readDetectorParameters understands (OpenCV 4.6).
+constexpr std::array<const char*, 32> kParameterKeys{"adaptiveThreshWinSizeMin",
+                                                     "adaptiveThreshWinSizeMax",
+                                                     "adaptiveThreshWinSizeStep",
+                                                     "adaptiveThreshConstant",
+                                                     "minMarkerPerimeterRate",
+                                                     "maxMarkerPerimeterRate",
+                                                     "polygonalApproxAccuracyRate",
+                                                     "minCornerDistanceRate",
+                                                     "minDistanceToBorder",
+                                                     "minMarkerDistanceRate",
+                                                     "cornerRefinementMethod",
+                                                     "cornerRefinementWinSize",
+                                                     "cornerRefinementMaxIterations",
+                                                     "cornerRefinementMinAccuracy",
+                                                     "markerBorderBits",
+                                                     "perspectiveRemovePixelPerCell",
+                                                     "perspectiveRemoveIgnoredMarginPerCell",
+                                                     "maxErroneousBitsInBorderRate",
+                                                     "minOtsuStdDev",
+                                                     "errorCorrectionRate",
+                                                     "aprilTagQuadDecimate",
+                                                     "aprilTagQuadSigma",
+                                                     "aprilTagMinClusterPixels",
+                                                     "aprilTagMaxNmaxima",
+                                                     "aprilTagCriticalRad",
+                                                     "aprilTagMaxLineFitMse",
+                                                     "aprilTagMinWhiteBlackDiff",
+                                                     "aprilTagDeglitch",
+                                                     "detectInvertedMarker",
+                                                     "useAruco3Detection",
+                                                     "minSideLengthCanonicalImg",
+                                                     "minMarkerLengthRatioOriginalImg"};
+// Keys that OpenCV's own tutorial file (and other OpenCV versions) carry but 4.6 does not read:
+// accepted with a warning so users' existing files load.
+constexpr std::array<const char*, 4> kIgnoredKeys{"adaptiveThreshWinSize", "minMarkerDistance",
+                                                  "cameraMotionSpeed", "useGlobalThreshold"};
+
+bool in_list(const std::string& key, const auto& list) {
+  return std::any_of(list.begin(), list.end(), [&](const char* k) { return key == k; });
+}
+
+int refinement_method(CornerRefinement r) {
+  switch (r) {
+    case CornerRefinement::kNone:
+      return cv::aruco::CORNER_REFINE_NONE;
+    case CornerRefinement::kSubpixel:
+      return cv::aruco::CORNER_REFINE_SUBPIX;
+    case CornerRefinement::kContour:
+      return cv::aruco::CORNER_REFINE_CONTOUR;
+    case CornerRefinement::kAprilTag:
+      return cv::aruco::CORNER_REFINE_APRILTAG;
+  }
+  return cv::aruco::CORNER_REFINE_SUBPIX;
+}
+
+}  // namespace
+
+void DetectorOptions::check() const {
+  if (dictionary.empty()) throw Error("must name a dictionary", {.field = "dictionary"});
+  if (refinement_window < 1 || refinement_window > 50) {
+    throw Error("must be in [1, 50] pixels", {.field = "refinement_window"});
+  }
+  if (refinement_max_iterations < 1) {
+    throw Error("must be positive", {.field = "refinement_max_iterations"});
+  }
+  if (!(refinement_min_accuracy > 0.0)) {
+    throw Error("must be positive", {.field = "refinement_min_accuracy"});
+  }
+  if (!(min_marker_perimeter_rate > 0.0 && min_marker_perimeter_rate < 4.0)) {
+    throw Error("must be in (0, 4)", {.field = "min_marker_perimeter_rate"});
+  }
+  if (!parameters_file.empty() && !std::filesystem::exists(parameters_file)) {
+    throw Error("detector parameters file does not exist",
+                {.file = parameters_file.string(), .field = "parameters_file"});
+  }
+}
+
+Eigen::Vector2d MarkerObservation::centre() const {
+  return 0.25 * (corners[0] + corners[1] + corners[2] + corners[3]);
+}
+
+double MarkerObservation::perimeter() const {
+  double p = 0.0;
+  for (int i = 0; i < 4; ++i)
+    p += (corners[(i + 1) % 4] - corners[i]).norm();
+  return p;
+}
+
+void read_detector_parameters(const std::filesystem::path& path,
+                              cv::aruco::DetectorParameters& parameters) {
+  const ErrorContext ctx{.file = path.string()};
+  cv::FileStorage fs;
+  try {
+    fs.open(path.string(), cv::FileStorage::READ);
+  } catch (const cv::Exception& e) {
+    throw Error(std::string("cannot parse detector parameters: ") + e.what(), ctx);
+  }
+  if (!fs.isOpened()) throw Error("cannot open detector parameters", ctx);
+  const cv::FileNode root = fs.root();
+  for (const std::string& key : root.keys()) {
+    if (in_list(key, kIgnoredKeys)) {
+      spdlog::warn("{}: key '{}' is not used by this OpenCV version", path.string(), key);
+      continue;
+    }
+    if (!in_list(key, kParameterKeys)) {
+      throw Error("unknown detector parameter", {.file = path.string(), .field = key});
+    }
+    if (!root[key].isInt() && !root[key].isReal()) {
+      throw Error("detector parameter must be a number", {.file = path.string(), .field = key});
+    }
+  }
+  if (!parameters.readDetectorParameters(root)) {
+    throw Error("cannot read detector parameters", ctx);
+  }
+}
+
+MarkerDetector::MarkerDetector(DetectorOptions options) : options_(std::move(options)) {
+  options_.check();
+  dictionary_ = make_dictionary(options_.dictionary);
+  parameters_ = cv::aruco::DetectorParameters::create();
+  parameters_->cornerRefinementMethod = refinement_method(options_.corner_refinement);
+  parameters_->cornerRefinementWinSize = options_.refinement_window;
+  parameters_->cornerRefinementMaxIterations = options_.refinement_max_iterations;
+  parameters_->cornerRefinementMinAccuracy = options_.refinement_min_accuracy;
+  parameters_->minMarkerPerimeterRate = options_.min_marker_perimeter_rate;
+  parameters_->useAruco3Detection = options_.aruco3;
+  if (!options_.parameters_file.empty()) {
+    read_detector_parameters(options_.parameters_file, *parameters_);
+  }
+}
+
+std::vector<MarkerObservation> MarkerDetector::detect(const cv::Mat& image) const {
+  if (image.empty()) throw Error("marker detection: empty image", {.field = "image"});
+  if (image.depth() != CV_8U) {
+    throw Error("marker detection: want an 8-bit image", {.field = "image"});
+  }
+  cv::Mat grey;
+  switch (image.channels()) {
+    case 1:
+      grey = image;
+      break;
+    case 3:
+      cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+      break;
+    case 4:
+      cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY);
+      break;
+    default:
+      throw Error("marker detection: want 1, 3 or 4 channels", {.field = "image"});
+  }
+  std::vector<std::vector<cv::Point2f>> corners;
+  std::vector<int> ids;
+  cv::aruco::detectMarkers(grey, dictionary_, corners, ids, parameters_);
+
+  std::vector<MarkerObservation> out;
+  out.reserve(ids.size());
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    if (corners[i].size() != 4) continue;
+    MarkerObservation obs;
+    obs.id = ids[i];
+    obs.image_width = grey.cols;
+    obs.image_height = grey.rows;
+    for (int c = 0; c < 4; ++c)
+      obs.corners[c] = {corners[i][c].x, corners[i][c].y};
+    out.push_back(obs);
+  }
+  std::sort(out.begin(), out.end(), [](const MarkerObservation& a, const MarkerObservation& b) {
+    if (a.id != b.id) return a.id < b.id;
+    return a.centre().x() < b.centre().x();
+  });
+  return out;
+}
+
+cv::Mat draw_observations(const cv::Mat& image,
+                          const std::vector<MarkerObservation>& observations) {
+  cv::Mat out;
+  if (image.channels() == 1) {
+    cv::cvtColor(image, out, cv::COLOR_GRAY2BGR);
+  } else if (image.channels() == 4) {
+    cv::cvtColor(image, out, cv::COLOR_BGRA2BGR);
+  } else {
+    out = image.clone();
+  }
+  const int thickness = std::max(1, std::max(out.cols, out.rows) / 700);
+  for (const MarkerObservation& obs : observations) {
+    std::array<cv::Point, 4> pts;
+    for (int c = 0; c < 4; ++c) {
+      pts[c] = cv::Point(cvRound(obs.corners[c].x()), cvRound(obs.corners[c].y()));
+    }
+    for (int c = 0; c < 4; ++c) {
+      cv::line(out, pts[c], pts[(c + 1) % 4], cv::Scalar(0, 255, 0), thickness, cv::LINE_AA);
+    }
+    cv::circle(out, pts[0], 3 * thickness, cv::Scalar(0, 0, 255), thickness, cv::LINE_AA);
+    const Eigen::Vector2d c = obs.centre();
+    cv::putText(out, std::to_string(obs.id), cv::Point(cvRound(c.x()), cvRound(c.y())),
+                cv::FONT_HERSHEY_SIMPLEX, 0.6 * thickness, cv::Scalar(255, 0, 0), thickness,
+                cv::LINE_AA);
+  }
+  return out;
+}
+
+}  // namespace coloc::markers
