@@ -124,37 +124,55 @@ void OrbExtractor::detect_level(int level, std::vector<Keypoint>& out) {
   const int max_y = image.rows - kBorder;
   if (max_x - min_x < 8 || max_y - min_y < 8) return;
 
-  // One FAST pass at the low threshold. OpenCV's FAST score is the largest threshold at which a
-  // point is still a corner, and non-maximum suppression only lets stronger neighbours suppress
-  // a corner; so the corners of a pass at threshold t are exactly those with score >= t here,
-  // and the per-cell fallback below equals ORB-SLAM's two passes per cell at a fraction of the
-  // cost.
-  std::vector<cv::KeyPoint> corners;
-  const cv::Rect roi(min_x - 3, min_y - 3, max_x - min_x + 6, max_y - min_y + 6);
-  cv::FAST(image(roi), corners, options_.min_th_fast, true, cv::FastFeatureDetector::TYPE_9_16);
-
+  // FAST at ini_th_fast over the whole level, then at min_th_fast only inside the cells (about
+  // kCellSize wide) where the first pass found nothing: ORB-SLAM's fallback, which gives
+  // low-contrast regions features too. A cell is searched with 3 px of context around it (the
+  // radius of the FAST circle) and keeps only corners inside it, so cells never share a corner.
   const float width = static_cast<float>(max_x - min_x);
   const float height = static_cast<float>(max_y - min_y);
   const int cols = std::max(1, static_cast<int>(std::lround(width / kCellSize)));
   const int rows = std::max(1, static_cast<int>(std::lround(height / kCellSize)));
-  auto cell_of = [&](const cv::KeyPoint& k) {
-    const float x = k.pt.x + static_cast<float>(roi.x) - static_cast<float>(min_x);
-    const float y = k.pt.y + static_cast<float>(roi.y) - static_cast<float>(min_y);
-    const int c = std::clamp(static_cast<int>(x * static_cast<float>(cols) / width), 0, cols - 1);
-    const int rr = std::clamp(static_cast<int>(y * static_cast<float>(rows) / height), 0, rows - 1);
-    return rr * cols + c;
-  };
-  std::vector<int> strong(static_cast<std::size_t>(cols * rows), 0);
-  const auto ini = static_cast<float>(options_.ini_th_fast);
-  for (const cv::KeyPoint& k : corners) {
-    if (k.response >= ini) ++strong[static_cast<std::size_t>(cell_of(k))];
-  }
+  auto cell_edge_x = [&](int c) { return min_x + (c * (max_x - min_x)) / cols; };
+  auto cell_edge_y = [&](int r) { return min_y + (r * (max_y - min_y)) / rows; };
+
+  std::vector<cv::KeyPoint> corners;
+  const cv::Rect roi(min_x - 3, min_y - 3, max_x - min_x + 6, max_y - min_y + 6);
+  cv::FAST(image(roi), corners, options_.ini_th_fast, true, cv::FastFeatureDetector::TYPE_9_16);
   std::vector<Candidate> candidates;
-  candidates.reserve(corners.size());
+  candidates.reserve(corners.size() + 256);
+  std::vector<char> occupied(static_cast<std::size_t>(cols * rows), 0);
   for (const cv::KeyPoint& k : corners) {
-    if (k.response >= ini || strong[static_cast<std::size_t>(cell_of(k))] == 0) {
-      candidates.push_back(
-          {k.pt.x + static_cast<float>(roi.x), k.pt.y + static_cast<float>(roi.y), k.response});
+    const int x = static_cast<int>(k.pt.x) + roi.x;
+    const int y = static_cast<int>(k.pt.y) + roi.y;
+    candidates.push_back({static_cast<float>(x), static_cast<float>(y), k.response});
+    // Cell edges are integers, so this inverse of cell_edge_x/y is exact.
+    int c = std::min(cols - 1, ((x - min_x) * cols) / (max_x - min_x));
+    while (c + 1 < cols && x >= cell_edge_x(c + 1))
+      ++c;
+    while (c > 0 && x < cell_edge_x(c))
+      --c;
+    int r = std::min(rows - 1, ((y - min_y) * rows) / (max_y - min_y));
+    while (r + 1 < rows && y >= cell_edge_y(r + 1))
+      ++r;
+    while (r > 0 && y < cell_edge_y(r))
+      --r;
+    occupied[static_cast<std::size_t>(r * cols + c)] = 1;
+  }
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      if (occupied[static_cast<std::size_t>(r * cols + c)] != 0) continue;
+      const cv::Rect cell(cell_edge_x(c), cell_edge_y(r), cell_edge_x(c + 1) - cell_edge_x(c),
+                          cell_edge_y(r + 1) - cell_edge_y(r));
+      const cv::Rect search(cell.x - 3, cell.y - 3, cell.width + 6, cell.height + 6);
+      cv::FAST(image(search), corners, options_.min_th_fast, true,
+               cv::FastFeatureDetector::TYPE_9_16);
+      for (const cv::KeyPoint& k : corners) {
+        const int x = static_cast<int>(k.pt.x) + search.x;
+        const int y = static_cast<int>(k.pt.y) + search.y;
+        if (cell.contains(cv::Point(x, y))) {
+          candidates.push_back({static_cast<float>(x), static_cast<float>(y), k.response});
+        }
+      }
     }
   }
 
