@@ -1,0 +1,164 @@
+#include "registration/handeye/refine.hpp"
+
+#include <ceres/ceres.h>
+
+#include <array>
+#include <cmath>
+
+#include "registration/handeye/linear.hpp"
+
+namespace coloc::registration::handeye {
+
+namespace {
+
+// Residual of one registration: 3 rotation + 3 translation components of the marker pose in
+// the camera, divided by their standard deviations.
+struct RegistrationCost {
+  Eigen::Quaterniond q_vr_from_device;
+  Eigen::Vector3d t_vr_from_device;
+  Eigen::Quaterniond q_camera_from_marker;
+  Eigen::Vector3d t_camera_from_marker;
+  double inv_rotation_sigma = 1.0;
+  double inv_translation_sigma = 1.0;
+
+  template <typename T>
+  bool operator()(const T* q_x_data, const T* t_x_data, const T* q_y_data, const T* t_y_data,
+                  const T* sigma, T* residual) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> q_x(q_x_data);  // device_from_marker
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t_x(t_x_data);
+    const Eigen::Map<const Eigen::Quaternion<T>> q_y(q_y_data);  // vr_from_camera
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t_y(t_y_data);
+    const Eigen::Quaternion<T> q_d = q_vr_from_device.cast<T>();
+    const Eigen::Quaternion<T> q_y_inv = q_y.conjugate();
+    // Predicted camera_from_marker = vr_from_camera^-1 * vr_from_device * device_from_marker.
+    const Eigen::Quaternion<T> q_pred = q_y_inv * (q_d * q_x);
+    const Eigen::Matrix<T, 3, 1> t_pred = q_y_inv * (q_d * t_x + t_vr_from_device.cast<T>() - t_y);
+    Eigen::Quaternion<T> dq = q_pred.conjugate() * q_camera_from_marker.cast<T>();
+    const T sign = dq.w() < T(0) ? T(-1) : T(1);
+    const Eigen::Matrix<T, 3, 1> rotation = T(2) * sign * dq.vec();  // ~ Log(dq), small angles
+    const Eigen::Matrix<T, 3, 1> translation = sigma[0] * t_camera_from_marker.cast<T>() - t_pred;
+    for (int k = 0; k < 3; ++k) {
+      residual[k] = rotation[k] * T(inv_rotation_sigma);
+      residual[3 + k] = translation[k] * T(inv_translation_sigma);
+    }
+    return true;
+  }
+};
+
+// Copies a covariance block of two tangent-space parameter blocks into the (d_t, d_theta) layout.
+// Ceres' quaternion tangent delta is half the rotation vector, hence the factors of 2.
+Matrix6d assemble_covariance(const ceres::Covariance& covariance, const double* q, const double* t,
+                             bool& ok) {
+  std::array<double, 9> tt{}, qq{}, tq{};
+  ok = covariance.GetCovarianceBlockInTangentSpace(t, t, tt.data()) &&
+       covariance.GetCovarianceBlockInTangentSpace(q, q, qq.data()) &&
+       covariance.GetCovarianceBlockInTangentSpace(t, q, tq.data());
+  Matrix6d out = Matrix6d::Zero();
+  out.topLeftCorner<3, 3>() =
+      Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(tt.data());
+  out.bottomRightCorner<3, 3>() =
+      4.0 * Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(qq.data());
+  out.topRightCorner<3, 3>() =
+      2.0 * Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(tq.data());
+  out.bottomLeftCorner<3, 3>() = out.topRightCorner<3, 3>().transpose();
+  return out;
+}
+
+}  // namespace
+
+std::pair<double, double> registration_residual(const Registration& registration,
+                                                const SE3& device_from_marker,
+                                                const SE3& vr_from_camera, double sigma) {
+  const SE3 predicted = vr_from_camera.inverse() * registration.vr_from_device * device_from_marker;
+  const SE3 measured = scaled(registration.camera_from_marker, sigma);
+  return {angular_distance(predicted.so3(), measured.so3()),
+          (predicted.translation() - measured.translation()).norm()};
+}
+
+RefineResult refine(std::span<const Registration> registrations, const std::vector<bool>& used,
+                    const SE3& device_from_marker, const SE3& vr_from_camera, double sigma,
+                    const Options& options) {
+  Eigen::Quaterniond q_x = device_from_marker.quaternion();
+  Eigen::Vector3d t_x = device_from_marker.translation();
+  Eigen::Quaterniond q_y = vr_from_camera.quaternion();
+  Eigen::Vector3d t_y = vr_from_camera.translation();
+  double s = sigma;
+
+  const NoiseModel& noise = options.noise;
+  const double lever = t_x.norm();  // device rotation noise moves the marker by this arm
+  const double rotation_sigma = std::hypot(noise.device_rotation, noise.marker_rotation);
+  const double translation_sigma =
+      std::sqrt(noise.device_translation * noise.device_translation +
+                noise.marker_translation * noise.marker_translation +
+                noise.device_rotation * noise.device_rotation * lever * lever);
+
+  ceres::Problem::Options problem_options;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  ceres::EigenQuaternionManifold quaternion_manifold;
+  ceres::HuberLoss huber(options.huber_delta > 0 ? options.huber_delta : 1.0);
+  ceres::LossFunction* loss = options.huber_delta > 0 ? &huber : nullptr;
+  int residual_blocks = 0;
+  for (std::size_t k = 0; k < registrations.size(); ++k) {
+    if (!used[k]) continue;
+    const Registration& r = registrations[k];
+    auto* cost = new ceres::AutoDiffCostFunction<RegistrationCost, 6, 4, 3, 4, 3, 1>(
+        new RegistrationCost{r.vr_from_device.quaternion(), r.vr_from_device.translation(),
+                             r.camera_from_marker.quaternion(), r.camera_from_marker.translation(),
+                             1.0 / rotation_sigma, 1.0 / translation_sigma});
+    problem.AddResidualBlock(cost, loss, q_x.coeffs().data(), t_x.data(), q_y.coeffs().data(),
+                             t_y.data(), &s);
+    ++residual_blocks;
+  }
+  RefineResult result;
+  result.device_from_marker = device_from_marker;
+  result.vr_from_camera = vr_from_camera;
+  result.sigma = sigma;
+  if (residual_blocks == 0) return result;
+  problem.SetManifold(q_x.coeffs().data(), &quaternion_manifold);
+  problem.SetManifold(q_y.coeffs().data(), &quaternion_manifold);
+  if (!options.estimate_scale) problem.SetParameterBlockConstant(&s);
+
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::DENSE_QR;
+  solver_options.max_num_iterations = options.max_refine_iterations;
+  solver_options.num_threads = 1;
+  solver_options.logging_type = ceres::SILENT;
+  solver_options.minimizer_progress_to_stdout = false;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+
+  result.converged = summary.termination_type == ceres::CONVERGENCE;
+  result.iterations = static_cast<int>(summary.iterations.size());
+  result.device_from_marker = SE3(q_x, t_x);
+  result.vr_from_camera = SE3(q_y, t_y);
+  result.sigma = s;
+  const int parameters = 12 + (options.estimate_scale ? 1 : 0);
+  const int dof = 6 * residual_blocks - parameters;
+  result.variance_factor = dof > 0 ? 2.0 * summary.final_cost / dof : 1.0;
+
+  if (options.estimate_covariance && result.converged && dof > 0) {
+    ceres::Covariance::Options covariance_options;
+    covariance_options.algorithm_type = ceres::DENSE_SVD;
+    covariance_options.num_threads = 1;
+    ceres::Covariance covariance(covariance_options);
+    std::vector<std::pair<const double*, const double*>> blocks = {
+        {t_x.data(), t_x.data()},
+        {q_x.coeffs().data(), q_x.coeffs().data()},
+        {t_x.data(), q_x.coeffs().data()}};
+    if (options.estimate_scale) blocks.emplace_back(&s, &s);
+    if (covariance.Compute(blocks, &problem)) {
+      bool ok = false;
+      const Matrix6d c = assemble_covariance(covariance, q_x.coeffs().data(), t_x.data(), ok);
+      if (ok) result.device_from_marker_covariance = result.variance_factor * c;
+      double sigma_variance = 0.0;
+      if (options.estimate_scale && covariance.GetCovarianceBlock(&s, &s, &sigma_variance)) {
+        result.sigma_variance = result.variance_factor * sigma_variance;
+      }
+    }
+  }
+  return result;
+}
+
+}  // namespace coloc::registration::handeye
