@@ -37,6 +37,11 @@ struct DetectorOptions {
   // Smallest marker perimeter as a fraction of the image's larger side (OpenCV's
   // minMarkerPerimeterRate); 0.03 finds ~15 px markers in a 640 px image.
   double min_marker_perimeter_rate = 0.03;
+  // Candidates closer than this fraction of their perimeter are merged and only the larger is
+  // decoded (OpenCV's minMarkerDistanceRate, default 0.05 there). A printed marker with a white
+  // margin of one cell on a darker wall gives such a larger square (the margin's outline); at
+  // 0.05 it hides the marker, so the default is lower.
+  double min_marker_distance_rate = 0.02;
   // ArUco 3 detection (Romero-Ramirez et al. 2018): thresholds a downscaled image; several times
   // faster on large frames, loses the smallest markers.
   bool aruco3 = false;
@@ -74,6 +79,8 @@ class MarkerDetector {
   const cv::aruco::Dictionary& dictionary() const { return *dictionary_; }
 
  private:
+  void refine_corners(const cv::Mat& grey, std::vector<std::vector<cv::Point2f>>& corners) const;
+
   DetectorOptions options_;
   cv::Ptr<cv::aruco::Dictionary> dictionary_;
   cv::Ptr<cv::aruco::DetectorParameters> parameters_;

@@ -81,22 +81,38 @@ std::optional<MarkerPose> estimate_marker_pose(const Camera& camera,
   } catch (const cv::Exception&) {
     return std::nullopt;  // degenerate corners (collinear, coincident): no pose, not an error
   }
-  std::vector<PoseCandidate> candidates;
+  // Each IPPE solution, unrefined and refined. Refinement can slide the worse solution into the
+  // better one's basin; we then keep it unrefined, so that the two hypotheses stay distinct.
+  struct Hypothesis {
+    PoseCandidate raw, refined;
+  };
+  std::vector<Hypothesis> hypotheses;
   for (std::size_t i = 0; i < rvecs.size(); ++i) {
+    Hypothesis h;
+    h.raw.camera_from_marker = se3_from_rvec_tvec(rvecs[i], tvecs[i]);
     cv::Mat rvec = rvecs[i].clone(), tvec = tvecs[i].clone();
-    if (options.refine)
+    if (options.refine) {
       cv::solvePnPRefineLM(object_points, image_points, k, no_distortion, rvec, tvec);
-    PoseCandidate candidate;
-    candidate.camera_from_marker = se3_from_rvec_tvec(rvec, tvec);
-    candidate.reprojection_error_px =
-        reprojection_error(camera, candidate.camera_from_marker, observation, options.marker_size);
-    if (std::isfinite(candidate.reprojection_error_px)) candidates.push_back(candidate);
+    }
+    h.refined.camera_from_marker = se3_from_rvec_tvec(rvec, tvec);
+    for (PoseCandidate* c : {&h.raw, &h.refined}) {
+      c->reprojection_error_px =
+          reprojection_error(camera, c->camera_from_marker, observation, options.marker_size);
+    }
+    if (std::isfinite(h.refined.reprojection_error_px)) hypotheses.push_back(h);
   }
-  if (candidates.empty()) return std::nullopt;
-  if (candidates.size() == 1) candidates.push_back(candidates.front());
-  if (candidates[1].reprojection_error_px < candidates[0].reprojection_error_px) {
-    std::swap(candidates[0], candidates[1]);
+  if (hypotheses.empty()) return std::nullopt;
+  if (hypotheses.size() == 1) hypotheses.push_back(hypotheses.front());
+  if (hypotheses[1].refined.reprojection_error_px < hypotheses[0].refined.reprojection_error_px) {
+    std::swap(hypotheses[0], hypotheses[1]);
   }
+  std::array<PoseCandidate, 2> candidates{hypotheses[0].refined, hypotheses[1].refined};
+  const double raw_angle =
+      rotation_distance(hypotheses[0].raw.camera_from_marker, hypotheses[1].raw.camera_from_marker);
+  const double refined_angle =
+      rotation_distance(candidates[0].camera_from_marker, candidates[1].camera_from_marker);
+  if (refined_angle < 0.25 * raw_angle) candidates[1] = hypotheses[1].raw;
+
   MarkerPose pose;
   pose.id = observation.id;
   pose.best = candidates[0];
