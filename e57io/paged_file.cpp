@@ -162,11 +162,11 @@ void PagedReader::load_window(std::uint64_t first_page) {
     done += static_cast<std::size_t>(n);
   }
   window_first_ = first_page;
-  window_pages_ = 0;  // stays empty if a check below throws
-  for (std::uint64_t i = 0; i < pages; ++i) {
-    if (policy_.wants(first_page + i)) check_page(first_page + i, window_.data() + i * kPageSize);
-  }
   window_pages_ = pages;
+  // Pages are checked when first read from, so an error names a page the caller needed.
+  window_checked_.assign(pages, 0);
+  for (std::uint64_t i = 0; i < pages; ++i)
+    window_checked_[i] = policy_.wants(first_page + i) ? 0 : 1;
 }
 
 void PagedReader::read(std::uint64_t logical, std::span<std::uint8_t> out) {
@@ -180,11 +180,15 @@ void PagedReader::read(std::uint64_t logical, std::span<std::uint8_t> out) {
           logical);
     }
     if (page < window_first_ || page >= window_first_ + window_pages_) load_window(page);
+    const std::uint64_t slot = page - window_first_;
+    if (window_checked_[slot] == 0) {
+      check_page(page, window_.data() + slot * kPageSize);
+      window_checked_[slot] = 1;
+    }
     const std::uint64_t in_page = pos % kPageData;
     const std::size_t n =
         static_cast<std::size_t>(std::min<std::uint64_t>(kPageData - in_page, out.size() - done));
-    std::memcpy(out.data() + done, window_.data() + (page - window_first_) * kPageSize + in_page,
-                n);
+    std::memcpy(out.data() + done, window_.data() + slot * kPageSize + in_page, n);
     done += n;
   }
 }
