@@ -165,6 +165,15 @@ CompressedVectorReader::CompressedVectorReader(PagedReader& file, const Element&
     channels_[i].next_packet = first_packet;
     channels_[i].buf.assign(kPad, 0);
   }
+  // Each channel's bits must fit in the section: catches absurd record counts up front.
+  for (std::size_t i = 0; i < channels_.size(); ++i) {
+    const unsigned bits = channels_[i].codec.bits;
+    if (bits > 0 && record_count_ > section_.logical_length * 8 / bits) {
+      throw file.error_at("recordCount " + std::to_string(record_count_) + " cannot fit in a " +
+                              std::to_string(section_.logical_length) + "-byte section",
+                          section_.logical_start, cv.path);
+    }
+  }
   cache_.resize(kCacheSlots);
 }
 

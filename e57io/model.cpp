@@ -1,5 +1,7 @@
 #include "e57io/model.hpp"
 
+#include <cmath>
+
 #include "e57io/error.hpp"
 
 namespace coloc::e57 {
@@ -35,7 +37,11 @@ std::int64_t get_integer(const Element& e, const char* name) {
   const Element* c = e.find(name);
   if (c == nullptr) return 0;
   if (c->type == ElementType::kInteger) return c->int_value;
-  return static_cast<std::int64_t>(c->number());
+  const double v = c->number();
+  if (!(std::abs(v) < 9.2e18)) {
+    throw Error("value does not fit a 64-bit integer", {.element = c->path});
+  }
+  return static_cast<std::int64_t>(v);
 }
 
 std::optional<Pose> get_pose(const Element& e, const char* name) {

@@ -133,6 +133,11 @@ PointStream Reader::open_points(std::size_t scan, std::uint32_t field_mask) cons
 PointBuffer Reader::read_points(std::size_t scan, std::uint32_t field_mask) const {
   PointStream stream = open_points(scan, field_mask);
   PointBuffer all;
+  if (stream.point_count() > (std::uint64_t{1} << 31)) {
+    throw Error("scan has " + std::to_string(stream.point_count()) +
+                    " points: too many for read_points(), stream them with open_points()",
+                {.file = path_.string(), .element = scans_[scan].element_path});
+  }
   all.reset(stream.field_mask(), static_cast<std::size_t>(stream.point_count()));
   // Decode straight into the final buffer, chunk by chunk (no copies).
   auto file = std::make_unique<PagedReader>(path_, options_.checksums);
