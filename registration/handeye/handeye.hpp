@@ -67,6 +67,8 @@ struct NoiseModel {
   double device_translation = 0.002;  // m
   double marker_rotation = 0.01;      // rad, PnP on a small marker
   double marker_translation = 0.005;  // m
+  // Extra standard deviation along the camera's viewing ray (PnP depth), m; 0 = isotropic.
+  double marker_depth = 0.0;
 };
 
 // RANSAC over minimal sets of 3 registrations. All triples are enumerated (deterministic) when
@@ -99,6 +101,10 @@ struct Options {
   double huber_delta = 3.0;  // robust loss on noise-normalized residuals; <= 0 disables it
   int max_refine_iterations = 50;
   NoiseModel noise;
+  // Re-estimate the noise model from the residuals and refine again (rounds of variance
+  // component estimation), so that a wrong `noise` does not bias the weighting. Needs enough
+  // registrations (>= 6) to be meaningful; skipped below that.
+  int noise_estimation_rounds = 2;
   bool estimate_covariance = true;  // needs refine
 
   // Throws coloc::Error naming the first bad field.
@@ -140,6 +146,7 @@ struct Summary {
   Residuals residuals;
 
   bool refined = false;  // the Ceres stage ran and converged
+  NoiseModel noise;      // the noise model used last (estimated if noise_estimation_rounds > 0)
   int refine_iterations = 0;
   // Covariance of X in its tangent space, ordered (d_t, d_theta): X = (Exp(d_theta) R, t + d_t),
   // d_theta in the device frame; metres and radians. Rescaled by the residual variance factor.

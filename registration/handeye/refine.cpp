@@ -19,7 +19,8 @@ struct RegistrationCost {
   Eigen::Quaterniond q_camera_from_marker;
   Eigen::Vector3d t_camera_from_marker;
   double inv_rotation_sigma = 1.0;
-  double inv_translation_sigma = 1.0;
+  // Whitens the translation residual (camera frame); anisotropic along the viewing ray.
+  Eigen::Matrix3d translation_whitening = Eigen::Matrix3d::Identity();
 
   template <typename T>
   bool operator()(const T* q_x_data, const T* t_x_data, const T* q_y_data, const T* t_y_data,
@@ -36,10 +37,11 @@ struct RegistrationCost {
     Eigen::Quaternion<T> dq = q_pred.conjugate() * q_camera_from_marker.cast<T>();
     const T sign = dq.w() < T(0) ? T(-1) : T(1);
     const Eigen::Matrix<T, 3, 1> rotation = T(2) * sign * dq.vec();  // ~ Log(dq), small angles
-    const Eigen::Matrix<T, 3, 1> translation = sigma[0] * t_camera_from_marker.cast<T>() - t_pred;
+    const Eigen::Matrix<T, 3, 1> translation =
+        translation_whitening.cast<T>() * (sigma[0] * t_camera_from_marker.cast<T>() - t_pred);
     for (int k = 0; k < 3; ++k) {
       residual[k] = rotation[k] * T(inv_rotation_sigma);
-      residual[3 + k] = translation[k] * T(inv_translation_sigma);
+      residual[3 + k] = translation[k];
     }
     return true;
   }
@@ -75,6 +77,37 @@ std::pair<double, double> registration_residual(const Registration& registration
           (predicted.translation() - measured.translation()).norm()};
 }
 
+NoiseModel noise_from_residuals(std::span<const Registration> registrations,
+                                const std::vector<bool>& used, const SE3& device_from_marker,
+                                const SE3& vr_from_camera, double sigma, int parameters) {
+  double rotation = 0.0, lateral = 0.0, depth = 0.0;
+  int n = 0;
+  for (std::size_t k = 0; k < registrations.size(); ++k) {
+    if (!used[k]) continue;
+    const Registration& r = registrations[k];
+    const SE3 predicted = vr_from_camera.inverse() * r.vr_from_device * device_from_marker;
+    const SE3 measured = scaled(r.camera_from_marker, sigma);
+    const double angle = angular_distance(predicted.so3(), measured.so3());
+    const Eigen::Vector3d e = measured.translation() - predicted.translation();
+    const double along = e.dot(measured.translation().normalized());
+    rotation += angle * angle;
+    depth += along * along;
+    lateral += e.squaredNorm() - along * along;
+    ++n;
+  }
+  const double correction = 6.0 * n / std::max(1.0, 6.0 * n - parameters);
+  NoiseModel m;
+  constexpr double kTiny = 1e-9;  // the device terms are folded into the marker terms
+  m.device_rotation = kTiny;
+  m.device_translation = kTiny;
+  m.marker_rotation = std::max(kTiny, std::sqrt(correction * rotation / (3.0 * n)));
+  m.marker_translation = std::max(kTiny, std::sqrt(correction * lateral / (2.0 * n)));
+  const double depth_sigma = std::sqrt(correction * depth / n);
+  m.marker_depth = std::sqrt(
+      std::max(0.0, depth_sigma * depth_sigma - m.marker_translation * m.marker_translation));
+  return m;
+}
+
 RefineResult refine(std::span<const Registration> registrations, const std::vector<bool>& used,
                     const SE3& device_from_marker, const SE3& vr_from_camera, double sigma,
                     const Options& options) {
@@ -103,10 +136,16 @@ RefineResult refine(std::span<const Registration> registrations, const std::vect
   for (std::size_t k = 0; k < registrations.size(); ++k) {
     if (!used[k]) continue;
     const Registration& r = registrations[k];
+    // Lateral and depth standard deviations; whitening W = P_lat / s_lat + P_ray / s_depth.
+    const Eigen::Vector3d ray = r.camera_from_marker.translation().normalized();
+    const Eigen::Matrix3d along = ray * ray.transpose();
+    const double depth_sigma = std::hypot(translation_sigma, noise.marker_depth);
+    const Eigen::Matrix3d whitening =
+        (Eigen::Matrix3d::Identity() - along) / translation_sigma + along / depth_sigma;
     auto* cost = new ceres::AutoDiffCostFunction<RegistrationCost, 6, 4, 3, 4, 3, 1>(
         new RegistrationCost{r.vr_from_device.quaternion(), r.vr_from_device.translation(),
                              r.camera_from_marker.quaternion(), r.camera_from_marker.translation(),
-                             1.0 / rotation_sigma, 1.0 / translation_sigma});
+                             1.0 / rotation_sigma, whitening});
     problem.AddResidualBlock(cost, loss, q_x.coeffs().data(), t_x.data(), q_y.coeffs().data(),
                              t_y.data(), &s);
     ++residual_blocks;

@@ -31,6 +31,13 @@ RefineResult refine(std::span<const Registration> registrations, const std::vect
                     const SE3& device_from_marker, const SE3& vr_from_camera, double sigma,
                     const Options& options);
 
+// The noise model the residuals of a solution imply (variance component estimation): rotation,
+// lateral and depth (along the viewing ray) standard deviations of the marker pose, corrected for
+// the degrees of freedom, with the device terms folded in. Needs >= 3 used registrations.
+NoiseModel noise_from_residuals(std::span<const Registration> registrations,
+                                const std::vector<bool>& used, const SE3& device_from_marker,
+                                const SE3& vr_from_camera, double sigma, int parameters);
+
 // Rotation angle (rad) and translation distance (m) between the measured camera_from_marker
 // (translation times sigma) and vr_from_camera^-1 * vr_from_device * device_from_marker.
 std::pair<double, double> registration_residual(const Registration& registration,

@@ -43,7 +43,8 @@ SO3 look_at(const Eigen::Vector3d& from, const Eigen::Vector3d& target) {
 }
 
 // world_from_marker with the marker's z axis (out of its face) tilted away from `to_camera`.
-SO3 marker_orientation(const Eigen::Vector3d& to_camera, double max_tilt, Rng& rng) {
+SO3 marker_orientation(const Eigen::Vector3d& to_camera, double max_tilt, double max_spin,
+                       Rng& rng) {
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   Eigen::Vector3d tilt_axis = to_camera.cross(random_unit(rng));
   if (tilt_axis.norm() < 1e-6) tilt_axis = to_camera.unitOrthogonal();
@@ -52,7 +53,7 @@ SO3 marker_orientation(const Eigen::Vector3d& to_camera, double max_tilt, Rng& r
   const Eigen::Vector3d x0 = normal.unitOrthogonal();
   Eigen::Matrix3d r;
   r << x0, normal.cross(x0), normal;
-  const double spin = std::numbers::pi * (2.0 * unit(rng) - 1.0);
+  const double spin = max_spin * (2.0 * unit(rng) - 1.0);
   return SO3::from_matrix(r) * SO3::exp(Eigen::Vector3d(0, 0, spin));
 }
 
@@ -81,6 +82,8 @@ void SimulationOptions::check() const {
   require(scale > 0, "scale", "must be > 0");
   require(camera_distance > workspace_radius, "camera_distance", "must exceed workspace_radius");
   require(max_tilt >= 0 && max_tilt < 1.5, "max_tilt", "must be in [0, 1.5) rad");
+  require(max_spin >= 0 && max_spin <= std::numbers::pi, "max_spin", "must be in [0, pi] rad");
+  require(marker_depth_noise >= 0, "marker_depth_noise", "must be >= 0");
 }
 
 Simulation simulate(const SimulationOptions& options) {
@@ -109,8 +112,8 @@ Simulation simulate(const SimulationOptions& options) {
       offset = Eigen::Vector3d(2 * unit(rng) - 1, 2 * unit(rng) - 1, 2 * unit(rng) - 1);
     while (offset.norm() > 1.0);
     const Eigen::Vector3d position = centre + options.workspace_radius * offset;
-    const SO3 rotation =
-        marker_orientation((camera_position - position).normalized(), options.max_tilt, rng);
+    const SO3 rotation = marker_orientation((camera_position - position).normalized(),
+                                            options.max_tilt, options.max_spin, rng);
     const SE3 world_from_device = SE3(rotation, position) * marker_from_device;
     sim.world_from_device.push_back(world_from_device);
     Registration r;
@@ -119,6 +122,11 @@ Simulation simulate(const SimulationOptions& options) {
     r.camera_from_marker =
         add_noise(camera_from_world * world_from_device * sim.device_from_marker,
                   options.marker_rotation_noise, options.marker_translation_noise, rng);
+    if (options.marker_depth_noise > 0) {
+      std::normal_distribution<double> depth(0.0, options.marker_depth_noise);
+      const Eigen::Vector3d ray = r.camera_from_marker.translation().normalized();
+      r.camera_from_marker.translation() += depth(rng) * ray;
+    }
     sim.registrations.push_back(r);
   }
 
@@ -142,6 +150,16 @@ Simulation simulate(const SimulationOptions& options) {
     r.camera_from_marker.translation() /= options.scale;
   }
   return sim;
+}
+
+NoiseModel noise_model(const SimulationOptions& options) {
+  NoiseModel m;
+  m.device_rotation = std::max(options.device_rotation_noise, 1e-9);
+  m.device_translation = std::max(options.device_translation_noise, 1e-9);
+  m.marker_rotation = std::max(options.marker_rotation_noise, 1e-9);
+  m.marker_translation = std::max(options.marker_translation_noise, 1e-9);
+  m.marker_depth = options.marker_depth_noise;
+  return m;
 }
 
 PoseError pose_error(const SE3& estimate, const SE3& truth) {

@@ -196,8 +196,9 @@ void Options::check() const {
   require(ransac.min_inlier_fraction > 0 && ransac.min_inlier_fraction <= 1,
           "ransac.min_inlier_fraction", "must be in (0, 1]");
   require(max_refine_iterations > 0, "max_refine_iterations", "must be > 0");
+  require(noise_estimation_rounds >= 0, "noise_estimation_rounds", "must be >= 0");
   require(noise.device_rotation > 0 && noise.device_translation > 0 && noise.marker_rotation > 0 &&
-              noise.marker_translation > 0,
+              noise.marker_translation > 0 && noise.marker_depth >= 0,
           "noise", "all standard deviations must be > 0");
   require(!estimate_covariance || refine, "estimate_covariance", "needs refine = true");
 }
@@ -237,9 +238,21 @@ Summary solve(std::span<const Registration> registrations, const Options& option
   if (status != LinearStatus::kOk) throw_degenerate(status, options, summary.conditioning);
 
   bool refine_ok = true;
+  summary.noise = options.noise;
   if (options.refine) {
-    const RefineResult refined = refine(registrations, used, estimate.device_from_marker,
-                                        estimate.vr_from_camera, estimate.sigma, options);
+    Options round = options;
+    RefineResult refined = refine(registrations, used, estimate.device_from_marker,
+                                  estimate.vr_from_camera, estimate.sigma, round);
+    const int used_count = static_cast<int>(std::count(used.begin(), used.end(), true));
+    for (int k = 0; k < options.noise_estimation_rounds && used_count >= 6 && refined.converged;
+         ++k) {
+      round.noise = noise_from_residuals(registrations, used, refined.device_from_marker,
+                                         refined.vr_from_camera, refined.sigma,
+                                         12 + (options.estimate_scale ? 1 : 0));
+      refined = refine(registrations, used, refined.device_from_marker, refined.vr_from_camera,
+                       refined.sigma, round);
+    }
+    summary.noise = round.noise;
     refine_ok = refined.converged && refined.sigma > 0;
     summary.refined = refine_ok;
     summary.refine_iterations = refined.iterations;

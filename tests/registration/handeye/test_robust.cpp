@@ -30,7 +30,7 @@ TEST(HandeyeRobust, OutliersRejectedByRansac) {
     all_found += exact;
     const PoseError e = pose_error(s.device_from_marker, sim.device_from_marker);
     EXPECT_LT(e.rotation, 0.01) << "seed " << seed;
-    EXPECT_LT(e.translation, 0.01) << "seed " << seed;
+    EXPECT_LT(e.translation, 0.02) << "seed " << seed;
   }
   EXPECT_GE(all_found, 19);
 }
@@ -56,8 +56,7 @@ TEST(HandeyeUncertainty, CovarianceIsConsistent) {
     o.seed = seed;
     const Simulation sim = simulate(o);
     Options options;
-    options.noise = {o.device_rotation_noise, o.device_translation_noise, o.marker_rotation_noise,
-                     o.marker_translation_noise};
+    options.noise = noise_model(o);
     const Summary s = solve(sim.registrations, options);
     ASSERT_TRUE(s.device_from_marker_covariance.has_value());
     // Error in the covariance's tangent: X_est = (Exp(d_theta) R_true, t_true + d_t).
