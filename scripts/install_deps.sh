@@ -13,6 +13,7 @@ packages=(
   liblo-dev liblo-tools
   libspdlog-dev libcli11-dev libpugixml-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  python3 python3-numpy
 )
 
 missing=()

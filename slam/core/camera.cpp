@@ -35,7 +35,9 @@ bool PinholeCamera::has_distortion() const {
   return false;
 }
 
-Eigen::Matrix3d PinholeCamera::intrinsic_matrix() const { return make_k(fx, fy, cx, cy); }
+Eigen::Matrix3d PinholeCamera::intrinsic_matrix() const {
+  return make_k(fx, fy, cx, cy);
+}
 
 Eigen::Vector2d PinholeCamera::distort(const Eigen::Vector2d& xy) const {
   const auto [k1, k2, p1, p2, k3] = distortion;
@@ -93,7 +95,9 @@ Eigen::Vector3d PinholeCamera::unproject(const Eigen::Vector2d& pixel) const {
 
 // ----------------------------------------------------------------------------- Kannala-Brandt
 
-Eigen::Matrix3d KannalaBrandtCamera::intrinsic_matrix() const { return make_k(fx, fy, cx, cy); }
+Eigen::Matrix3d KannalaBrandtCamera::intrinsic_matrix() const {
+  return make_k(fx, fy, cx, cy);
+}
 
 double KannalaBrandtCamera::distort_angle(double theta) const {
   const auto [k1, k2, k3, k4] = distortion;

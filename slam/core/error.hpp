@@ -11,8 +11,8 @@
 namespace coloc {
 
 struct ErrorContext {
-  std::string file;                    // path of the offending file, if any
-  std::string field;                   // key, element or column name, if any
+  std::string file;                     // path of the offending file, if any
+  std::string field;                    // key, element or column name, if any
   std::optional<std::uint64_t> offset;  // byte offset into the file, if known
   std::optional<std::int64_t> line;     // 1-based line number, if known
 };

@@ -15,9 +15,13 @@ Progress::Progress(std::string label, std::uint64_t total, bool quiet, std::FILE
       start_(std::chrono::steady_clock::now()),
       last_draw_(start_) {}
 
-Progress::~Progress() { finish(); }
+Progress::~Progress() {
+  finish();
+}
 
-void Progress::advance(std::uint64_t n) { set(done_ + n); }
+void Progress::advance(std::uint64_t n) {
+  set(done_ + n);
+}
 
 void Progress::set(std::uint64_t done) {
   done_ = done;
@@ -49,8 +53,8 @@ void Progress::draw(bool force) {
                    100.0 * fraction, static_cast<unsigned long long>(done_),
                    static_cast<unsigned long long>(total_), elapsed);
     } else {
-      std::fprintf(out_, "\r%s %llu %.1fs", label_.c_str(),
-                   static_cast<unsigned long long>(done_), elapsed);
+      std::fprintf(out_, "\r%s %llu %.1fs", label_.c_str(), static_cast<unsigned long long>(done_),
+                   elapsed);
     }
     std::fflush(out_);
     return;

@@ -105,7 +105,9 @@ Matrix6d SE3::left_jacobian(const Vector6d& xi) {
   return j;
 }
 
-Matrix6d SE3::right_jacobian(const Vector6d& xi) { return left_jacobian(-xi); }
+Matrix6d SE3::right_jacobian(const Vector6d& xi) {
+  return left_jacobian(-xi);
+}
 
 SE3 interpolate(const SE3& a, const SE3& b, double t) {
   return {interpolate(a.so3(), b.so3(), t), (1.0 - t) * a.translation() + t * b.translation()};
@@ -115,6 +117,8 @@ double translation_distance(const SE3& a, const SE3& b) {
   return (a.translation() - b.translation()).norm();
 }
 
-double rotation_distance(const SE3& a, const SE3& b) { return angular_distance(a.so3(), b.so3()); }
+double rotation_distance(const SE3& a, const SE3& b) {
+  return angular_distance(a.so3(), b.so3());
+}
 
 }  // namespace coloc

@@ -38,9 +38,7 @@ class SE3 {
 
   SE3 inverse() const;
   SE3 operator*(const SE3& other) const;
-  Eigen::Vector3d operator*(const Eigen::Vector3d& p) const {
-    return rotation_ * p + translation_;
-  }
+  Eigen::Vector3d operator*(const Eigen::Vector3d& p) const { return rotation_ * p + translation_; }
 
   // Adjoint for the (rho, phi) ordering: T * exp(xi) * T^-1 = exp(adjoint() * xi).
   Matrix6d adjoint() const;

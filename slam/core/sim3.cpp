@@ -22,7 +22,8 @@ double moment(int n, double sigma) {
   }
   const double e = std::exp(sigma);
   double f = (e - 1.0) / sigma;
-  for (int i = 1; i <= n; ++i) f = (e - i * f) / sigma;
+  for (int i = 1; i <= n; ++i)
+    f = (e - i * f) / sigma;
   return f;
 }
 

@@ -90,7 +90,9 @@ Eigen::Matrix3d SO3::hat(const Eigen::Vector3d& v) {
   return m;
 }
 
-Eigen::Vector3d SO3::vee(const Eigen::Matrix3d& m) { return {m(2, 1), m(0, 2), m(1, 0)}; }
+Eigen::Vector3d SO3::vee(const Eigen::Matrix3d& m) {
+  return {m(2, 1), m(0, 2), m(1, 0)};
+}
 
 Eigen::Matrix3d SO3::left_jacobian(const Eigen::Vector3d& omega) {
   const double theta = omega.norm();
@@ -104,7 +106,9 @@ Eigen::Matrix3d SO3::left_jacobian_inverse(const Eigen::Vector3d& omega) {
   return Eigen::Matrix3d::Identity() - 0.5 * w + detail::jl_inv_coeff(theta) * w * w;
 }
 
-Eigen::Matrix3d SO3::right_jacobian(const Eigen::Vector3d& omega) { return left_jacobian(-omega); }
+Eigen::Matrix3d SO3::right_jacobian(const Eigen::Vector3d& omega) {
+  return left_jacobian(-omega);
+}
 
 Eigen::Matrix3d SO3::right_jacobian_inverse(const Eigen::Vector3d& omega) {
   return left_jacobian_inverse(-omega);
@@ -114,6 +118,8 @@ SO3 interpolate(const SO3& a, const SO3& b, double t) {
   return a * SO3::exp(t * (a.inverse() * b).log());
 }
 
-double angular_distance(const SO3& a, const SO3& b) { return (a.inverse() * b).angle(); }
+double angular_distance(const SO3& a, const SO3& b) {
+  return (a.inverse() * b).angle();
+}
 
 }  // namespace coloc

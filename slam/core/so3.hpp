@@ -3,7 +3,8 @@
 // active rotation: R * p rotates the point p). Tangent vectors are rotation vectors in radians.
 //
 // Jacobian conventions (Barfoot, "State Estimation for Robotics"):
-//   exp(phi + d) ~= exp(phi) * exp(right_jacobian(phi) * d) ~= exp(left_jacobian(phi) * d) * exp(phi)
+//   exp(phi + d) ~= exp(phi) * exp(right_jacobian(phi) * d) ~= exp(left_jacobian(phi) * d) *
+//   exp(phi)
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -57,9 +58,9 @@ double angular_distance(const SO3& a, const SO3& b);
 
 namespace detail {
 // Coefficients of the SO(3)/SE(3) series, with Taylor expansions where the closed forms cancel.
-double sinc_a(double theta);       // sin(t)/t
-double cos_b(double theta);        // (1 - cos t) / t^2
-double sin_c(double theta);        // (t - sin t) / t^3
+double sinc_a(double theta);        // sin(t)/t
+double cos_b(double theta);         // (1 - cos t) / t^2
+double sin_c(double theta);         // (t - sin t) / t^3
 double jl_inv_coeff(double theta);  // 1/t^2 - (1 + cos t) / (2 t sin t)
 }  // namespace detail
 

@@ -22,7 +22,8 @@ SampleStats summarize(const std::vector<double>& samples) {
   if (samples.empty()) return s;
   s.mean = std::accumulate(samples.begin(), samples.end(), 0.0) / static_cast<double>(s.count);
   double sq = 0.0;
-  for (double v : samples) sq += (v - s.mean) * (v - s.mean);
+  for (double v : samples)
+    sq += (v - s.mean) * (v - s.mean);
   s.stddev = std::sqrt(sq / static_cast<double>(s.count));
   const auto [lo, hi] = std::minmax_element(samples.begin(), samples.end());
   s.min = *lo;

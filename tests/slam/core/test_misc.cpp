@@ -55,7 +55,8 @@ TEST(Progress, NonTtyWritesOneLinePerDecile) {
   ASSERT_NE(f, nullptr);
   {
     Progress p("work", 100, false, f);
-    for (int i = 0; i < 100; ++i) p.advance();
+    for (int i = 0; i < 100; ++i)
+      p.advance();
   }
   std::rewind(f);
   int lines = 0;

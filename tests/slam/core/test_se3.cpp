@@ -53,24 +53,25 @@ TEST(SE3, ComposeInverseActAndFrameNames) {
   const Eigen::Vector3d p_marker(0.1, 0.2, 0.0);
   EXPECT_LT((world_from_marker * p_marker - world_from_cam * (cam_from_marker * p_marker)).norm(),
             1e-12);
-  EXPECT_LT(((world_from_cam * world_from_cam.inverse()).matrix() - Eigen::Matrix4d::Identity())
-                .norm(),
-            1e-12);
-  EXPECT_LT((world_from_marker.matrix() - world_from_cam.matrix() * cam_from_marker.matrix()).norm(),
-            1e-12);
+  EXPECT_LT(
+      ((world_from_cam * world_from_cam.inverse()).matrix() - Eigen::Matrix4d::Identity()).norm(),
+      1e-12);
+  EXPECT_LT(
+      (world_from_marker.matrix() - world_from_cam.matrix() * cam_from_marker.matrix()).norm(),
+      1e-12);
   EXPECT_LT((SE3::from_matrix(world_from_cam.matrix()).matrix() - world_from_cam.matrix()).norm(),
             1e-12);
-  EXPECT_LT((SE3::from_matrix3x4(world_from_cam.matrix3x4()).matrix() - world_from_cam.matrix())
-                .norm(),
-            1e-12);
+  EXPECT_LT(
+      (SE3::from_matrix3x4(world_from_cam.matrix3x4()).matrix() - world_from_cam.matrix()).norm(),
+      1e-12);
 }
 
 TEST(SE3, Adjoint) {
   const SE3 t = SE3::exp((Vector6d() << 0.3, -1, 2, 0.4, 0.1, -0.7).finished());
   const Vector6d xi = (Vector6d() << 0.01, 0.02, -0.03, 0.05, -0.02, 0.01).finished();
-  EXPECT_LT(((t * SE3::exp(xi) * t.inverse()).matrix() - SE3::exp(t.adjoint() * xi).matrix())
-                .norm(),
-            1e-12);
+  EXPECT_LT(
+      ((t * SE3::exp(xi) * t.inverse()).matrix() - SE3::exp(t.adjoint() * xi).matrix()).norm(),
+      1e-12);
 }
 
 TEST(SE3, JacobiansMatchNumericDerivatives) {

@@ -16,8 +16,8 @@ std::vector<Eigen::Vector3d> test_rotation_vectors() {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   // Angles from 0 through tiny values up to (just below and exactly) pi.
-  for (double angle : {0.0, 1e-12, 1e-8, 1e-5, 1e-3, 0.1, 0.5, 1.0, 2.0, 3.0, M_PI - 1e-6,
-                       M_PI - 1e-9, M_PI}) {
+  for (double angle :
+       {0.0, 1e-12, 1e-8, 1e-5, 1e-3, 0.1, 0.5, 1.0, 2.0, 3.0, M_PI - 1e-6, M_PI - 1e-9, M_PI}) {
     for (int k = 0; k < 5; ++k) {
       Eigen::Vector3d axis(u(rng), u(rng), u(rng));
       out.push_back(axis.normalized() * angle);
@@ -100,10 +100,13 @@ TEST(SO3, LeftAndRightJacobiansMatchNumericDerivatives) {
     const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
     EXPECT_LT((numeric_jacobian<3, 3>(right, zero) - SO3::right_jacobian(w)).norm(), 1e-7);
     EXPECT_LT((numeric_jacobian<3, 3>(left, zero) - SO3::left_jacobian(w)).norm(), 1e-7);
-    EXPECT_LT((SO3::left_jacobian(w) * SO3::left_jacobian_inverse(w) -
-               Eigen::Matrix3d::Identity()).norm(), 1e-9);
-    EXPECT_LT((SO3::right_jacobian(w) * SO3::right_jacobian_inverse(w) -
-               Eigen::Matrix3d::Identity()).norm(), 1e-9);
+    EXPECT_LT((SO3::left_jacobian(w) * SO3::left_jacobian_inverse(w) - Eigen::Matrix3d::Identity())
+                  .norm(),
+              1e-9);
+    EXPECT_LT(
+        (SO3::right_jacobian(w) * SO3::right_jacobian_inverse(w) - Eigen::Matrix3d::Identity())
+            .norm(),
+        1e-9);
   }
 }
 
@@ -111,9 +114,9 @@ TEST(SO3, LogDerivativeIsInverseRightJacobian) {
   const Eigen::Vector3d w(0.4, -0.3, 1.1);
   const SO3 r = SO3::exp(w);
   auto f = [&](const Eigen::Vector3d& d) { return (r * SO3::exp(d)).log(); };
-  EXPECT_LT((numeric_jacobian<3, 3>(f, Eigen::Vector3d::Zero()) - SO3::right_jacobian_inverse(w))
-                .norm(),
-            1e-7);
+  EXPECT_LT(
+      (numeric_jacobian<3, 3>(f, Eigen::Vector3d::Zero()) - SO3::right_jacobian_inverse(w)).norm(),
+      1e-7);
 }
 
 TEST(SO3, InterpolationIsGeodesic) {

@@ -42,20 +42,42 @@ TEST(Trajectory, ReadsRealTumGroundTruth) {
   COLOC_REQUIRE_DATA(dir, "tum_fr1_xyz_37f");
   const Trajectory gt = read_tum_trajectory(dir / "groundtruth.txt");
   ASSERT_GT(gt.size(), 100u);
-  for (std::size_t i = 1; i < gt.size(); ++i) EXPECT_GE(gt[i].timestamp, gt[i - 1].timestamp);
+  for (std::size_t i = 1; i < gt.size(); ++i)
+    EXPECT_GE(gt[i].timestamp, gt[i - 1].timestamp);
 }
 
 TEST(Trajectory, AssociationIsGreedyNearestFirst) {
   Trajectory a;
   Trajectory b;
-  for (double t : {0.0, 0.1, 0.2, 0.3}) a.push_back({t, SE3()});
-  for (double t : {0.005, 0.095, 0.12, 0.5}) b.push_back({t, SE3()});
+  for (double t : {0.0, 0.1, 0.2, 0.3})
+    a.push_back({t, SE3()});
+  for (double t : {0.005, 0.095, 0.12, 0.5})
+    b.push_back({t, SE3()});
   const auto pairs = associate_by_time(a, b, 0.02);
   ASSERT_EQ(pairs.size(), 2u);
   EXPECT_EQ(pairs[0].first, 0u);
   EXPECT_EQ(pairs[0].second, 0u);
   EXPECT_EQ(pairs[1].first, 1u);
   EXPECT_EQ(pairs[1].second, 1u);
+}
+
+TEST(Trajectory, InOrderAssociationKeepsEveryFrame) {
+  // Colour at 0, 33, 66 ms; depth 15 ms earlier each, except the second which is 2 ms late:
+  // greedy nearest-first pairs colour 1 with depth 1... and leaves a frame out; in order, all
+  // three pair up.
+  const std::vector<double> color = {0.000, 0.033, 0.066, 0.099};
+  const std::vector<double> depth = {-0.015, 0.0175, 0.051, 0.084};
+  const auto pairs = associate_in_order(color, depth, 0.02);
+  ASSERT_EQ(pairs.size(), 4u);
+  for (std::size_t k = 0; k < 4; ++k) {
+    EXPECT_EQ(pairs[k].first, k);
+    EXPECT_EQ(pairs[k].second, k);
+  }
+  // Among equally long matchings the smaller total |dt| wins.
+  const auto one = associate_in_order({1.0}, {0.99, 1.005}, 0.02);
+  ASSERT_EQ(one.size(), 1u);
+  EXPECT_EQ(one[0].second, 1u);
+  EXPECT_TRUE(associate_in_order({}, {1.0}, 0.02).empty());
 }
 
 }  // namespace

@@ -1,0 +1,202 @@
+#include "slam/settings/settings.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <opencv2/core.hpp>
+#include <set>
+
+#include "slam/core/error.hpp"
+
+namespace coloc::settings {
+namespace {
+
+// Typed access to the top-level keys of one file, remembering which keys were used so the
+// rest can be reported.
+class KeyReader {
+ public:
+  explicit KeyReader(const std::filesystem::path& path) : path_(path) {
+    try {
+      if (!storage_.open(path.string(), cv::FileStorage::READ)) {
+        throw Error("cannot open settings file", {.file = path.string()});
+      }
+    } catch (const cv::Exception& e) {
+      throw Error("not a readable YAML settings file (" + std::string(e.err) + ")",
+                  {.file = path.string()});
+    }
+    for (const auto& node : storage_.root())
+      keys_.push_back(node.name());
+  }
+
+  bool has(const std::string& key) const { return !storage_[key].empty(); }
+
+  std::optional<double> number(const std::string& key) {
+    const cv::FileNode node = storage_[key];
+    if (node.empty()) return std::nullopt;
+    used_.insert(key);
+    if (!node.isReal() && !node.isInt()) fail(key, "expected a number");
+    return static_cast<double>(node.real());
+  }
+
+  double required_number(const std::string& key) {
+    const auto v = number(key);
+    if (!v) fail(key, "required key is missing");
+    return *v;
+  }
+
+  std::optional<int> integer(const std::string& key) {
+    const auto v = number(key);
+    if (!v) return std::nullopt;
+    if (std::floor(*v) != *v) fail(key, "expected an integer, got " + std::to_string(*v));
+    return static_cast<int>(*v);
+  }
+
+  std::optional<std::string> text(const std::string& key) {
+    const cv::FileNode node = storage_[key];
+    if (node.empty()) return std::nullopt;
+    used_.insert(key);
+    if (!node.isString()) fail(key, "expected a string");
+    return static_cast<std::string>(node);
+  }
+
+  // A scalar of any type, as text (for extension sections that their users type-check).
+  std::string scalar_text(const std::string& key) {
+    const cv::FileNode node = storage_[key];
+    used_.insert(key);
+    if (node.isString()) return static_cast<std::string>(node);
+    if (node.isInt()) return std::to_string(static_cast<int>(node));
+    if (node.isReal()) {
+      char buf[32];
+      std::snprintf(buf, sizeof(buf), "%.17g", static_cast<double>(node));
+      return buf;
+    }
+    fail(key, "expected a scalar value");
+  }
+
+  [[noreturn]] void fail(const std::string& key, const std::string& message) const {
+    throw Error(message, {.file = path_.string(), .field = key});
+  }
+
+  const std::vector<std::string>& keys() const { return keys_; }
+  bool used(const std::string& key) const { return used_.count(key) != 0; }
+
+ private:
+  std::filesystem::path path_;
+  cv::FileStorage storage_;
+  std::vector<std::string> keys_;
+  std::set<std::string> used_;
+};
+
+bool starts_with(const std::string& s, const std::string& prefix) {
+  return s.starts_with(prefix);
+}
+
+Camera read_camera(KeyReader& keys, int file_version) {
+  // v1.0 names the first camera Camera1.*; older files use Camera.* for everything.
+  const std::string p = file_version >= 1 ? "Camera1." : "Camera.";
+  const std::string type = keys.text("Camera.type").value_or("PinHole");
+  const int width = keys.integer("Camera.width").value_or(0);
+  const int height = keys.integer("Camera.height").value_or(0);
+  const double fx = keys.required_number(p + "fx");
+  const double fy = keys.required_number(p + "fy");
+  const double cx = keys.required_number(p + "cx");
+  const double cy = keys.required_number(p + "cy");
+  if (!(fx > 0.0) || !(fy > 0.0)) keys.fail(p + "fx", "focal lengths must be positive");
+  auto coeff = [&](const std::string& k) { return keys.number(p + k).value_or(0.0); };
+  if (type == "PinHole" || type == "Rectified") {
+    return PinholeCamera{width,
+                         height,
+                         fx,
+                         fy,
+                         cx,
+                         cy,
+                         {coeff("k1"), coeff("k2"), coeff("p1"), coeff("p2"), coeff("k3")}};
+  }
+  if (type == "KannalaBrandt8") {
+    return KannalaBrandtCamera{
+        width, height, fx, fy, cx, cy, {coeff("k1"), coeff("k2"), coeff("k3"), coeff("k4")}};
+  }
+  keys.fail("Camera.type",
+            "unknown camera model '" + type + "' (supported: PinHole, Rectified, KannalaBrandt8)");
+}
+
+std::optional<DepthSettings> read_depth(KeyReader& keys, int file_version, double fx) {
+  DepthSettings d;
+  std::optional<double> th;
+  std::optional<double> factor;
+  if (file_version >= 1) {
+    const auto b = keys.number("Stereo.b");
+    th = keys.number("Stereo.ThDepth");
+    factor = keys.number("RGBD.DepthMapFactor");
+    if (!b && !th && !factor) return std::nullopt;
+    if (!b) keys.fail("Stereo.b", "required with Stereo.ThDepth / RGBD.DepthMapFactor");
+    d.baseline = *b;
+    d.bf = *b * fx;
+  } else {
+    const auto bf = keys.number("Camera.bf");
+    th = keys.number("ThDepth");
+    factor = keys.number("DepthMapFactor");
+    if (!bf && !th && !factor) return std::nullopt;
+    if (!bf) keys.fail("Camera.bf", "required with ThDepth / DepthMapFactor");
+    d.bf = *bf;
+    d.baseline = *bf / fx;
+  }
+  if (!(d.baseline > 0.0)) keys.fail(file_version >= 1 ? "Stereo.b" : "Camera.bf", "must be > 0");
+  d.th_depth = th.value_or(40.0);
+  d.close_depth = d.baseline * d.th_depth;
+  d.depth_map_factor = factor.value_or(1.0);
+  // ORB-SLAM treats a zero factor as "depth already in metres".
+  if (std::abs(d.depth_map_factor) < 1e-5) d.depth_map_factor = 1.0;
+  if (d.depth_map_factor < 0.0) {
+    keys.fail(file_version >= 1 ? "RGBD.DepthMapFactor" : "DepthMapFactor", "must be positive");
+  }
+  return d;
+}
+
+OrbSettings read_orb(KeyReader& keys) {
+  OrbSettings o;
+  o.n_features = keys.integer("ORBextractor.nFeatures").value_or(o.n_features);
+  o.scale_factor = keys.number("ORBextractor.scaleFactor").value_or(o.scale_factor);
+  o.n_levels = keys.integer("ORBextractor.nLevels").value_or(o.n_levels);
+  o.ini_th_fast = keys.integer("ORBextractor.iniThFAST").value_or(o.ini_th_fast);
+  o.min_th_fast = keys.integer("ORBextractor.minThFAST").value_or(o.min_th_fast);
+  if (o.n_features <= 0) keys.fail("ORBextractor.nFeatures", "must be positive");
+  if (!(o.scale_factor > 1.0)) keys.fail("ORBextractor.scaleFactor", "must be > 1");
+  if (o.n_levels <= 0 || o.n_levels > 32) keys.fail("ORBextractor.nLevels", "must be in 1..32");
+  return o;
+}
+
+}  // namespace
+
+Settings load_settings(const std::filesystem::path& path) {
+  if (!std::filesystem::exists(path))
+    throw Error("settings file not found", {.file = path.string()});
+  KeyReader keys(path);
+  Settings s;
+  s.source = path;
+  if (const auto version = keys.text("File.version")) {
+    if (*version != "1.0") keys.fail("File.version", "unsupported version '" + *version + "'");
+    s.file_version = 1;
+  }
+  s.camera = read_camera(keys, s.file_version);
+  s.fps = keys.number("Camera.fps").value_or(s.fps);
+  s.rgb_order = keys.integer("Camera.RGB").value_or(1) != 0;
+  s.depth = read_depth(keys, s.file_version, intrinsic_matrix(s.camera)(0, 0));
+  s.orb = read_orb(keys);
+  s.markers.dictionary = keys.text("Markers.dictionary").value_or(s.markers.dictionary);
+  s.markers.size = keys.number("Markers.size").value_or(s.markers.size);
+  if (!(s.markers.size > 0.0)) keys.fail("Markers.size", "must be positive (metres)");
+
+  for (const auto& key : keys.keys()) {
+    if (keys.used(key) || starts_with(key, "Viewer.")) continue;
+    if (starts_with(key, "Fusion.") || starts_with(key, "OSC.")) {
+      s.extensions[key] = keys.scalar_text(key);
+      continue;
+    }
+    s.warnings.push_back(key);
+    spdlog::warn("{}: unknown key '{}' ignored", path.string(), key);
+  }
+  return s;
+}
+
+}  // namespace coloc::settings

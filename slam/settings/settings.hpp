@@ -1,0 +1,66 @@
+#pragma once
+// Settings files as ORB-SLAM users have them, loaded unchanged:
+//  - ORB-SLAM2 (and ORB-SLAM3 before v1.0): Camera.fx ... Camera.k3, Camera.bf (baseline times
+//    fx, in pixels*metres), ThDepth, DepthMapFactor;
+//  - ORB-SLAM3 v1.0 (File.version: "1.0"): Camera1.fx ..., Stereo.b (baseline in metres),
+//    Stereo.ThDepth, RGBD.DepthMapFactor;
+//  - both: Camera.type ("PinHole" | "KannalaBrandt8"), Camera.width/height, Camera.fps,
+//    Camera.RGB, ORBextractor.*; Viewer.* is ignored.
+// coloc's own additions live in the same file under their own prefixes: Markers.*, Fusion.*,
+// OSC.*. Any other key is reported as a warning naming it; a missing required key or a value of
+// the wrong type is a coloc::Error naming the key and the file.
+
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "slam/core/camera.hpp"
+
+namespace coloc::settings {
+
+// Depth sensing (RGB-D or stereo). ORB-SLAM treats RGB-D as a virtual stereo rig whose
+// baseline turns depth into a "right" pixel coordinate: u_right = u - bf / depth.
+struct DepthSettings {
+  double baseline = 0.0;          // metres (Stereo.b, or Camera.bf / fx)
+  double bf = 0.0;                // baseline * fx (pixels * metres)
+  double close_depth = 0.0;       // metres: points nearer than this are "close" (ThDepth * b)
+  double th_depth = 0.0;          // ThDepth as written (baselines)
+  double depth_map_factor = 1.0;  // raw depth units per metre (TUM: 5000)
+};
+
+struct OrbSettings {
+  int n_features = 1000;
+  double scale_factor = 1.2;
+  int n_levels = 8;
+  int ini_th_fast = 20;
+  int min_th_fast = 7;
+};
+
+struct MarkerSettings {
+  std::string dictionary = "DICT_4X4_50";  // OpenCV aruco dictionary name
+  double size = 0.1675;                    // marker edge length, metres
+};
+
+struct Settings {
+  std::filesystem::path source;
+  int file_version = 0;  // 0: ORB-SLAM2 style keys, 1: ORB-SLAM3 v1.0 keys
+  Camera camera;         // width/height are 0 when the file does not give them
+  double fps = 30.0;
+  bool rgb_order = true;  // Camera.RGB: 1 = images are RGB, 0 = BGR
+  std::optional<DepthSettings> depth;
+  OrbSettings orb;
+  MarkerSettings markers;
+  // Fusion.* and OSC.* values as written (key -> scalar text); the verbs that use them check
+  // their keys and types.
+  std::map<std::string, std::string> extensions;
+  // Unknown keys, in file order (also logged as warnings).
+  std::vector<std::string> warnings;
+};
+
+// Throws coloc::Error (file and key named) for unreadable files, missing required keys and
+// wrong value types.
+Settings load_settings(const std::filesystem::path& path);
+
+}  // namespace coloc::settings

@@ -1,0 +1,117 @@
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <opencv2/core.hpp>
+
+#include "slam/core/error.hpp"
+#include "slam/dataset/sequence.hpp"
+#include "tests/testing/data.hpp"
+
+namespace coloc::dataset {
+namespace {
+
+TEST(TumSequence, AssociatesRgbAndDepthWithin20ms) {
+  COLOC_REQUIRE_DATA(dir, "tum_fr1_xyz_37f");
+  const auto seq = open_sequence(dir);
+  EXPECT_EQ(seq->format(), "tum");
+  // 37 colour and 37 depth images; 36 pairs lie within 20 ms (colour 31 is 20.2 ms from its
+  // depth image). The greedy nearest-first pairing of associate.py would keep only 32.
+  ASSERT_EQ(seq->size(), 36u);
+  const Frame f = seq->frame(0);
+  EXPECT_DOUBLE_EQ(f.timestamp, 1305031102.175304);
+  EXPECT_EQ(f.depth_path.filename(), "1305031102.160407.png");
+  ASSERT_EQ(f.color.type(), CV_8UC3);
+  ASSERT_EQ(f.depth.type(), CV_32FC1);
+  EXPECT_EQ(f.color.size(), cv::Size(640, 480));
+  // Depth is in metres (5000 units per metre): the fr1/xyz desk is 0.5-3 m away.
+  double lo = 0.0;
+  double hi = 0.0;
+  cv::minMaxLoc(f.depth, &lo, &hi, nullptr, nullptr, f.depth > 0);
+  EXPECT_GT(lo, 0.3);
+  EXPECT_LT(hi, 6.0);
+  EXPECT_GT(cv::countNonZero(f.depth), 200000);
+  EXPECT_GT(seq->ground_truth().size(), 100u);
+  for (std::size_t i = 1; i < seq->size(); ++i)
+    EXPECT_GT(seq->timestamp(i), seq->timestamp(i - 1));
+}
+
+TEST(TumSequence, ReadsAssociationsFile) {
+  COLOC_REQUIRE_DATA(dir, "tum_fr1_rpy_180f");
+  const auto seq = open_sequence(dir);
+  ASSERT_EQ(seq->size(), 180u);
+  EXPECT_DOUBLE_EQ(seq->timestamp(0), 1305031229.528748);
+  const Frame last = seq->frame(179);
+  EXPECT_FALSE(last.color.empty());
+  EXPECT_FALSE(last.depth.empty());
+  EXPECT_FALSE(seq->ground_truth().empty());
+}
+
+TEST(SevenScenesSequence, ReadsFramesPosesAndInvalidDepth) {
+  COLOC_REQUIRE_DATA(dir, "sevenscenes_600f");
+  const auto seq = open_sequence(dir);
+  EXPECT_EQ(seq->format(), "7scenes");
+  ASSERT_EQ(seq->size(), 600u);
+  ASSERT_EQ(seq->ground_truth().size(), 600u);
+  // frame-000000.pose.txt, first row: 0.9093129 0.27262229 -0.31422433 -0.34045634
+  const SE3& p0 = seq->ground_truth()[0].world_from_cam;
+  // KinectFusion's rotations are not exactly orthonormal; we project them onto SO(3).
+  EXPECT_NEAR(p0.rotation()(0, 0), 0.9093129, 1e-4);
+  EXPECT_NEAR(p0.translation().x(), -0.34045634, 1e-8);
+  EXPECT_NEAR(seq->timestamp(30), 1.0, 1e-12);
+  const Frame f = seq->frame(10);
+  double hi = 0.0;
+  cv::minMaxLoc(f.depth, nullptr, &hi);
+  EXPECT_LT(hi, 10.0);  // 65535 (invalid) became 0, not 65.5 m
+  ASSERT_TRUE(seq->camera().has_value());
+  EXPECT_DOUBLE_EQ(intrinsic_matrix(*seq->camera())(0, 0), 585.0);
+  EXPECT_THROW(seq->frame(600), Error);
+}
+
+TEST(EurocSequence, StereoImuGroundTruthAndIntrinsics) {
+  COLOC_REQUIRE_DATA(dir, "euroc_v101_30f");
+  const auto seq = open_sequence(dir);
+  EXPECT_EQ(seq->format(), "euroc");
+  ASSERT_EQ(seq->size(), 30u);
+  const Frame f = seq->frame(0);
+  EXPECT_EQ(f.color.type(), CV_8UC1);
+  EXPECT_EQ(f.color.size(), cv::Size(752, 480));
+  EXPECT_FALSE(f.right.empty());
+  EXPECT_TRUE(f.depth.empty());
+  // ~145 s of IMU at 200 Hz; accelerometer norm near gravity at rest.
+  ASSERT_GT(seq->imu().size(), 25000u);
+  EXPECT_NEAR(seq->imu().front().accel.norm(), 9.81, 0.5);
+  const auto between = seq->imu_between(seq->timestamp(0), seq->timestamp(1));
+  EXPECT_GE(between.size(), 9u);  // 50 ms at 200 Hz
+  EXPECT_LE(between.size(), 11u);
+  ASSERT_FALSE(seq->ground_truth().empty());
+  EXPECT_NEAR(seq->ground_truth().front().world_from_cam.translation().x(), 0.8687393558, 1e-9);
+  ASSERT_TRUE(seq->camera().has_value());
+  EXPECT_DOUBLE_EQ(intrinsic_matrix(*seq->camera())(0, 0), 458.654);
+}
+
+TEST(Sequence, ErrorsNameTheFile) {
+  const auto dir = testing::temp_dir("bad_tum");
+  std::ofstream(dir / "rgb.txt") << "# header\n1.0 rgb/missing.png\n";
+  std::ofstream(dir / "depth.txt") << "1.001 depth/missing.png\n";
+  const auto seq = open_sequence(dir);
+  ASSERT_EQ(seq->size(), 1u);
+  try {
+    seq->frame(0);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(e.context().file.find("missing.png"), std::string::npos);
+  }
+  std::ofstream(dir / "depth.txt") << "oops depth/missing.png\n";
+  try {
+    open_sequence(dir);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().line, 1);
+    EXPECT_NE(e.context().file.find("depth.txt"), std::string::npos);
+  }
+  EXPECT_THROW(open_sequence(dir / "nothing"), Error);
+  EXPECT_THROW(open_sequence(testing::temp_dir("empty_seq")), Error);
+}
+
+}  // namespace
+}  // namespace coloc::dataset

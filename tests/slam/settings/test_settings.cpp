@@ -1,0 +1,124 @@
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "slam/core/error.hpp"
+#include "slam/settings/settings.hpp"
+#include "tests/testing/data.hpp"
+
+namespace coloc::settings {
+namespace {
+
+void expect_tum1(const Settings& s) {
+  ASSERT_TRUE(std::holds_alternative<PinholeCamera>(s.camera));
+  const auto& cam = std::get<PinholeCamera>(s.camera);
+  EXPECT_DOUBLE_EQ(cam.fx, 517.306408);
+  EXPECT_DOUBLE_EQ(cam.fy, 516.469215);
+  EXPECT_DOUBLE_EQ(cam.cx, 318.643040);
+  EXPECT_DOUBLE_EQ(cam.cy, 255.313989);
+  EXPECT_DOUBLE_EQ(cam.distortion[0], 0.262383);
+  EXPECT_DOUBLE_EQ(cam.distortion[4], 1.163314);
+  EXPECT_EQ(cam.width, 640);
+  EXPECT_EQ(cam.height, 480);
+  EXPECT_DOUBLE_EQ(s.fps, 30.0);
+  EXPECT_TRUE(s.rgb_order);
+  ASSERT_TRUE(s.depth.has_value());
+  EXPECT_DOUBLE_EQ(s.depth->depth_map_factor, 5000.0);
+  EXPECT_DOUBLE_EQ(s.depth->th_depth, 40.0);
+  EXPECT_EQ(s.orb.n_features, 1000);
+  EXPECT_DOUBLE_EQ(s.orb.scale_factor, 1.2);
+  EXPECT_EQ(s.orb.n_levels, 8);
+  EXPECT_EQ(s.orb.ini_th_fast, 20);
+  EXPECT_EQ(s.orb.min_th_fast, 7);
+  EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();  // Viewer.* is ignored silently
+}
+
+TEST(Settings, LoadsOrbSlam2FileUnchanged) {
+  COLOC_REQUIRE_DATA(file, "orbslam_configs/ORB_SLAM2_RGB-D_TUM1.yaml");
+  const Settings s = load_settings(file);
+  EXPECT_EQ(s.file_version, 0);
+  expect_tum1(s);
+  // Camera.bf = 40 (pixels * metres): baseline = bf / fx; close depth = ThDepth * baseline.
+  EXPECT_DOUBLE_EQ(s.depth->bf, 40.0);
+  EXPECT_NEAR(s.depth->baseline, 40.0 / 517.306408, 1e-12);
+  EXPECT_NEAR(s.depth->close_depth, 40.0 * 40.0 / 517.306408, 1e-12);
+}
+
+TEST(Settings, LoadsOrbSlam3V1FileUnchanged) {
+  COLOC_REQUIRE_DATA(file, "orbslam_configs/ORB_SLAM3_v1.0_RGB-D_TUM1.yaml");
+  const Settings s = load_settings(file);
+  EXPECT_EQ(s.file_version, 1);
+  expect_tum1(s);
+  EXPECT_DOUBLE_EQ(s.depth->baseline, 0.07732);
+  EXPECT_NEAR(s.depth->bf, 0.07732 * 517.306408, 1e-9);
+  EXPECT_NEAR(s.depth->close_depth, 40.0 * 0.07732, 1e-12);
+}
+
+std::filesystem::path write(const std::string& name, const std::string& body) {
+  const auto dir = testing::temp_dir("settings");
+  const auto path = dir / name;
+  std::ofstream(path) << "%YAML:1.0\n" << body;
+  return path;
+}
+
+const char* kMinimal =
+    "Camera.type: \"PinHole\"\nCamera.fx: 500.0\nCamera.fy: 500.0\nCamera.cx: 320.0\n"
+    "Camera.cy: 240.0\n";
+
+TEST(Settings, FisheyeOwnSectionsAndUnknownKeys) {
+  const auto path = write("kb.yaml",
+                          "File.version: \"1.0\"\nCamera.type: \"KannalaBrandt8\"\n"
+                          "Camera1.fx: 190.9\nCamera1.fy: 190.9\nCamera1.cx: 254.9\n"
+                          "Camera1.cy: 256.8\nCamera1.k1: 0.003\nCamera1.k2: 0.0007\n"
+                          "Camera1.k3: -0.002\nCamera1.k4: 0.0002\nMarkers.dictionary: "
+                          "\"DICT_APRILTAG_36h11\"\nMarkers.size: 0.2\nFusion.processNoise: "
+                          "0.002\nOSC.port: 9000\nCamera.fsp: 30\n");
+  const Settings s = load_settings(path);
+  ASSERT_TRUE(std::holds_alternative<KannalaBrandtCamera>(s.camera));
+  EXPECT_DOUBLE_EQ(std::get<KannalaBrandtCamera>(s.camera).distortion[3], 0.0002);
+  EXPECT_FALSE(s.depth.has_value());
+  EXPECT_EQ(s.markers.dictionary, "DICT_APRILTAG_36h11");
+  EXPECT_DOUBLE_EQ(s.markers.size, 0.2);
+  EXPECT_EQ(s.extensions.at("Fusion.processNoise"), "0.002");
+  EXPECT_EQ(s.extensions.at("OSC.port"), "9000");
+  ASSERT_EQ(s.warnings.size(), 1u);  // the misspelt key is named
+  EXPECT_EQ(s.warnings[0], "Camera.fsp");
+}
+
+// Broken files: the error names the key and the file.
+void expect_error(const std::filesystem::path& path, const std::string& key) {
+  try {
+    load_settings(path);
+    FAIL() << "expected an error for " << key;
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().field, key) << e.what();
+    EXPECT_EQ(e.context().file, path.string());
+    EXPECT_NE(std::string(e.what()).find(path.filename().string()), std::string::npos);
+  }
+}
+
+TEST(Settings, BrokenFilesNameKeyAndFile) {
+  expect_error(write("missing_fx.yaml", "Camera.fy: 500.0\nCamera.cx: 320.0\nCamera.cy: 240.0\n"),
+               "Camera.fx");
+  expect_error(write("string_fx.yaml", std::string(kMinimal) + "Camera.k1: \"abc\"\n"),
+               "Camera.k1");
+  expect_error(write("bad_type.yaml",
+                     "Camera.type: \"Fisheye9\"\nCamera.fx: 1\nCamera.fy: 1\nCamera.cx: 1\n"
+                     "Camera.cy: 1\n"),
+               "Camera.type");
+  expect_error(write("bad_levels.yaml", std::string(kMinimal) + "ORBextractor.nLevels: 2.5\n"),
+               "ORBextractor.nLevels");
+  expect_error(write("no_bf.yaml", std::string(kMinimal) + "ThDepth: 40.0\n"), "Camera.bf");
+  expect_error(write("version.yaml", std::string("File.version: \"2.0\"\n") + kMinimal),
+               "File.version");
+}
+
+TEST(Settings, UnreadableFilesAreErrors) {
+  EXPECT_THROW(load_settings("/nonexistent/settings.yaml"), Error);
+  const auto dir = testing::temp_dir("settings_garbage");
+  std::ofstream(dir / "garbage.yaml") << "%YAML:1.0\nCamera.fx: [1, 2\n  : : :\n";
+  EXPECT_THROW(load_settings(dir / "garbage.yaml"), Error);
+}
+
+}  // namespace
+}  // namespace coloc::settings
