@@ -266,7 +266,7 @@ TEST(ImuEuroc, GlobalPosesCorrectTheIntegratedDrift) {
   EXPECT_LT(rmse, 0.04);
   EXPECT_LT(rms(fused_rotation), 1.0 * kDeg);
   EXPECT_GT(rms(unaided_position), 20.0 * rmse);  // dead reckoning runs away
-  EXPECT_LT(rms(jumps), 0.005);                   // smooth at 200 Hz
+  EXPECT_LT(rms(jumps), 0.003);  // smooth at 200 Hz
   EXPECT_EQ(fuser.stats().out_of_order, 0u);
   EXPECT_GT(fuser.stats().corrections, 1000u);
 }

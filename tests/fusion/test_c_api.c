@@ -1,0 +1,146 @@
+/* The fusion C ABI from C: options, argument checks, and OSC end to end on loopback with liblo
+ * (C) as the peer. Every wait is bounded. Exit code 0 = pass. */
+#include <lo/lo.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "fusion/c_api.h"
+
+static int failures = 0;
+#define CHECK(cond)                                                            \
+  do {                                                                         \
+    if (!(cond)) {                                                             \
+      fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); \
+      ++failures;                                                              \
+    }                                                                          \
+  } while (0)
+
+static double received_x = 0.0;
+static int received_state = -1;
+static int received = 0;
+
+static int on_fused(const char* path, const char* types, lo_arg** argv, int argc, lo_message msg,
+                    void* user) {
+  (void)path;
+  (void)msg;
+  (void)user;
+  if (argc == 10 && strcmp(types, "diifffffff") == 0) {
+    received_state = argv[2]->i;
+    received_x = argv[3]->f;
+    ++received;
+  }
+  return 0;
+}
+
+static void send_pose(lo_address to, const char* path, double t, int seq, float x) {
+  lo_send(to, path, "diifffffff", t, seq, 1, x, 0.0f, 1.7f, 0.0f, 0.0f, 0.0f, 1.0f);
+}
+
+/* Evaluates cond (over `stats`) until true, at most ~3 s, serving the liblo server meanwhile. */
+#define WAIT_FOR(f, server, cond)              \
+  do {                                         \
+    int tries_;                                \
+    for (tries_ = 0; tries_ < 300; ++tries_) { \
+      coloc_fusion_get_stats((f), &stats);     \
+      if (cond) break;                         \
+      lo_server_recv_noblock((server), 10);    \
+    }                                          \
+    CHECK(cond);                               \
+  } while (0)
+
+int main(void) {
+  coloc_fusion_options options;
+  coloc_fusion* f;
+  coloc_pose pose, fused;
+  coloc_fusion_stats stats;
+  char error[256];
+  char port_text[16];
+  int state = -1;
+  lo_server server;
+  lo_address to;
+  char* url;
+
+  CHECK(coloc_fusion_abi_version() == COLOC_FUSION_ABI_VERSION);
+  coloc_fusion_default_options(&options);
+  CHECK(options.process_noise == 0.001 && options.measurement_noise == 0.9);
+  CHECK(options.gating == 1 && options.time_alignment == 1);
+
+  /* Bad options are reported, not crashed on. */
+  options.abi_version = 999;
+  CHECK(coloc_fusion_create(&options, error, sizeof(error)) == NULL);
+  CHECK(strstr(error, "abi_version") != NULL);
+  coloc_fusion_default_options(&options);
+  options.measurement_noise = -1.0;
+  CHECK(coloc_fusion_create(&options, error, sizeof(error)) == NULL);
+  CHECK(strstr(error, "measurement_noise") != NULL);
+  coloc_fusion_default_options(&options);
+  options.publish_url = "http://nowhere";
+  CHECK(coloc_fusion_create(&options, error, sizeof(error)) == NULL);
+  CHECK(strstr(error, "url") != NULL);
+  coloc_fusion_destroy(NULL);
+  CHECK(coloc_fusion_push_xr_pose(NULL, &pose, NULL, NULL) == COLOC_ERROR_INVALID_ARGUMENT);
+
+  /* A liblo server in C receives the fused poses. */
+  server = lo_server_new_with_proto(NULL, LO_UDP, NULL);
+  CHECK(server != NULL);
+  if (server == NULL) return 1;
+  lo_server_add_method(server, "/coloc/fused_pose", NULL, on_fused, NULL);
+  url = lo_server_get_url(server);
+  snprintf(error, sizeof(error), "osc.udp://127.0.0.1:%d", lo_server_get_port(server));
+  free(url);
+
+  coloc_fusion_default_options(&options);
+  options.publish_url = error;
+  f = coloc_fusion_create(&options, NULL, 0);
+  CHECK(f != NULL);
+  if (f == NULL) return 1;
+
+  memset(&pose, 0, sizeof(pose));
+  pose.orientation[3] = 1.0;
+  pose.position[0] = NAN;
+  CHECK(coloc_fusion_push_xr_pose(f, &pose, &fused, &state) == COLOC_ERROR_INVALID_ARGUMENT);
+  CHECK(strlen(coloc_fusion_last_error(f)) > 0);
+  CHECK(coloc_fusion_push_global_pose(f, &pose, 7) == COLOC_ERROR_INVALID_ARGUMENT);
+
+  /* OSC in: headset and global poses over UDP from liblo, to the handle's port. */
+  CHECK(coloc_fusion_osc_port(f) > 0);
+  CHECK(coloc_fusion_start_osc(f) == COLOC_OK);
+  snprintf(port_text, sizeof(port_text), "%d", coloc_fusion_osc_port(f));
+  to = lo_address_new("127.0.0.1", port_text);
+  send_pose(to, "/coloc/xr_pose", 1.0, 1, 0.0f);
+  WAIT_FOR(f, server, stats.xr_poses >= 1);
+  send_pose(to, "/coloc/pose", 1.0, 1, 2.0f); /* global: 2 m further in x -> D = +2 m */
+  WAIT_FOR(f, server, stats.initialized >= 1);
+  lo_send(to, "/coloc/pose", "s", "garbage"); /* wrong types: counted, dropped */
+  WAIT_FOR(f, server, stats.osc_wrong_types >= 1);
+  send_pose(to, "/coloc/xr_pose", 1.1, 2, 0.5f);
+  WAIT_FOR(f, server, stats.xr_poses >= 2);
+
+  /* OSC out: the fused pose reached the liblo server. */
+  {
+    int i;
+    for (i = 0; i < 300 && received_state != COLOC_FUSION_TRACKING; ++i) {
+      lo_server_recv_noblock(server, 10);
+    }
+  }
+  CHECK(received >= 1);
+  CHECK(received_state == COLOC_FUSION_TRACKING);
+  CHECK(fabs(received_x - 2.5) < 1e-4);
+
+  /* Direct API on the same handle. */
+  CHECK(coloc_fusion_get_fused_pose(f, &fused, &state) == COLOC_OK);
+  CHECK(state == COLOC_FUSION_TRACKING);
+  CHECK(fabs(fused.position[0] - 2.5) < 1e-4);
+  CHECK(coloc_fusion_get_stats(f, &stats) == COLOC_OK);
+  CHECK(stats.osc_published >= 1);
+  CHECK(stats.osc_wrong_types == 1);
+  CHECK(coloc_fusion_stop_osc(f) == COLOC_OK);
+
+  coloc_fusion_destroy(f);
+  lo_address_free(to);
+  lo_server_free(server);
+  if (failures == 0) printf("fusion C ABI: all checks passed\n");
+  return failures == 0 ? 0 : 1;
+}
