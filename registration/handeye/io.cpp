@@ -168,4 +168,59 @@ std::vector<TimedRegistration> match_by_time(const std::vector<TimedPose>& vr_fr
   return out;
 }
 
+void write_calibration(const std::filesystem::path& path, const CalibrationFile& calibration) {
+  std::ofstream out = open_for_writing(path);
+  out << "# coloc handeye calibration: 4x4 row-major, metres (frames: see README, hand-eye)\n";
+  auto matrix = [&](const char* key, const SE3& pose) {
+    const Eigen::Matrix4d m = pose.matrix();
+    out << key << ": [";
+    for (int k = 0; k < 16; ++k)
+      out << (k ? ", " : "") << m(k / 4, k % 4);
+    out << "]\n";
+  };
+  matrix("device_from_marker", calibration.device_from_marker);
+  matrix("vr_from_camera", calibration.vr_from_camera);
+  out << "sigma: " << calibration.sigma << "\n";
+}
+
+CalibrationFile read_calibration(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw Error("cannot open file", {.file = path.string()});
+  Reader reader{path, 0};
+  CalibrationFile out;
+  bool seen_x = false, seen_y = false;
+  std::string line;
+  while (std::getline(in, line)) {
+    ++reader.line;
+    const std::size_t hash = line.find('#');
+    if (hash != std::string::npos) line.resize(hash);
+    const std::size_t colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    const std::string key =
+        split(line.substr(0, colon)).empty() ? "" : split(line.substr(0, colon))[0];
+    std::string value = line.substr(colon + 1);
+    std::replace(value.begin(), value.end(), '[', ' ');
+    std::replace(value.begin(), value.end(), ']', ' ');
+    const std::vector<std::string> fields = split(value);
+    if (key == "sigma") {
+      if (fields.size() != 1) reader.fail("expected one number", key);
+      out.sigma = reader.number(fields[0], key);
+      continue;
+    }
+    if (key != "device_from_marker" && key != "vr_from_camera") reader.fail("unknown key", key);
+    if (fields.size() != 16) reader.fail("expected 16 numbers (4x4 row-major)", key);
+    Eigen::Matrix4d m;
+    for (int k = 0; k < 16; ++k)
+      m(k / 4, k % 4) = reader.number(fields[k], key);
+    (key == "device_from_marker" ? out.device_from_marker : out.vr_from_camera) =
+        SE3::from_matrix(m);
+    (key == "device_from_marker" ? seen_x : seen_y) = true;
+  }
+  if (!seen_x || !seen_y) {
+    throw Error("missing key",
+                {.file = path.string(), .field = seen_x ? "vr_from_camera" : "device_from_marker"});
+  }
+  return out;
+}
+
 }  // namespace coloc::registration::handeye

@@ -40,4 +40,17 @@ std::vector<TimedRegistration> match_by_time(const std::vector<TimedPose>& vr_fr
                                              const std::vector<TimedPose>& camera_from_marker,
                                              double max_dt);
 
+// A solved calibration as `coloc handeye solve --output` writes it and `link` / `stability` read
+// it: a small YAML file with 4x4 row-major matrices,
+//   device_from_marker: [16 numbers]
+//   vr_from_camera: [16 numbers]
+//   sigma: 1.0
+struct CalibrationFile {
+  SE3 device_from_marker;
+  SE3 vr_from_camera;
+  double sigma = 1.0;
+};
+void write_calibration(const std::filesystem::path& path, const CalibrationFile& calibration);
+CalibrationFile read_calibration(const std::filesystem::path& path);
+
 }  // namespace coloc::registration::handeye

@@ -81,6 +81,28 @@ TEST(HandeyeIo, ParseErrorsNameLineAndField) {
   EXPECT_THROW(read_pairs_file(dir / "missing.csv"), Error);
 }
 
+TEST(HandeyeIo, CalibrationFileRoundTrip) {
+  const auto dir = testing::temp_dir("handeye_calibration");
+  CalibrationFile c;
+  c.device_from_marker =
+      SE3(SO3::exp(Eigen::Vector3d(0.1, 2.0, -0.3)), Eigen::Vector3d(0.01, 0.02, 0.03));
+  c.vr_from_camera = SE3(SO3::exp(Eigen::Vector3d(-1, 0.5, 0.2)), Eigen::Vector3d(1, 2, 3));
+  c.sigma = 1.25;
+  write_calibration(dir / "c.yaml", c);
+  const CalibrationFile back = read_calibration(dir / "c.yaml");
+  EXPECT_LT(rotation_distance(back.device_from_marker, c.device_from_marker), 1e-9);
+  EXPECT_LT(translation_distance(back.vr_from_camera, c.vr_from_camera), 1e-9);
+  EXPECT_DOUBLE_EQ(back.sigma, 1.25);
+  write(dir / "bad.yaml", "device_from_marker: [1, 0, 0]\n");
+  try {
+    read_calibration(dir / "bad.yaml");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().line, 1);
+    EXPECT_EQ(e.context().field, "device_from_marker");
+  }
+}
+
 TEST(HandeyeGuidance, SessionAndNextRegistration) {
   SimulationOptions o;
   o.seed = 12;
