@@ -46,7 +46,7 @@ AlignmentResult align_points(const std::vector<Eigen::Vector3d>& src,
   var_src /= w_sum;
 
   Eigen::JacobiSVD<Eigen::Matrix3d> svd(cov, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const Eigen::Vector3d sv = svd.singularValues();
+  const Eigen::Vector3d& sv = svd.singularValues();
   result.conditioning = sv(0) > 0.0 ? sv(1) / sv(0) : 0.0;
   // Two non-zero singular values determine the rotation (planar sets are fine; lines are not).
   if (!(sv(0) > 0.0) || result.conditioning < 1e-10 || !(var_src > 0.0)) return result;
