@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "markers/dictionary.hpp"
+#include "markers/edge_refine.hpp"
 #include "slam/core/error.hpp"
 
 namespace coloc::markers {
@@ -65,14 +66,37 @@ int refinement_method(CornerRefinement r) {
   switch (r) {
     case CornerRefinement::kNone:
       return cv::aruco::CORNER_REFINE_NONE;
-    case CornerRefinement::kSubpixel:
-      return cv::aruco::CORNER_REFINE_SUBPIX;
+    case CornerRefinement::kSubpixel:  // done by refine_corners(), with a cell-scaled window
+    case CornerRefinement::kEdgeLines:
+      return cv::aruco::CORNER_REFINE_NONE;
     case CornerRefinement::kContour:
       return cv::aruco::CORNER_REFINE_CONTOUR;
     case CornerRefinement::kAprilTag:
       return cv::aruco::CORNER_REFINE_APRILTAG;
   }
-  return cv::aruco::CORNER_REFINE_SUBPIX;
+  return cv::aruco::CORNER_REFINE_NONE;
+}
+
+// One marker can be decoded twice: from the outer contour of its black border and from a
+// contour inside it (the inner edge of the border, whose ring of data bits can pass as a border
+// under error correction). Such detections share the id and the centre; the larger is the marker.
+void remove_nested_duplicates(std::vector<MarkerObservation>& observations) {
+  std::vector<bool> drop(observations.size(), false);
+  for (std::size_t i = 0; i < observations.size(); ++i) {
+    for (std::size_t j = i + 1; j < observations.size(); ++j) {
+      const MarkerObservation& a = observations[i];
+      const MarkerObservation& b = observations[j];
+      if (a.id != b.id) continue;
+      const double edge = 0.25 * std::max(a.perimeter(), b.perimeter());
+      if ((a.centre() - b.centre()).norm() > 0.25 * edge) continue;
+      drop[a.perimeter() < b.perimeter() ? i : j] = true;
+    }
+  }
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < observations.size(); ++i) {
+    if (!drop[i]) observations[k++] = observations[i];
+  }
+  observations.resize(k);
 }
 
 }  // namespace
@@ -146,9 +170,7 @@ MarkerDetector::MarkerDetector(DetectorOptions options) : options_(std::move(opt
   // Sub-pixel refinement is done here rather than by OpenCV, with a window scaled to the marker's
   // cell size: OpenCV 4.6 uses one fixed window, which on small markers (cells of 3-4 px) reaches
   // into the data bits and pulls the corners by several pixels.
-  parameters_->cornerRefinementMethod = options_.corner_refinement == CornerRefinement::kSubpixel
-                                            ? cv::aruco::CORNER_REFINE_NONE
-                                            : refinement_method(options_.corner_refinement);
+  parameters_->cornerRefinementMethod = refinement_method(options_.corner_refinement);
   parameters_->cornerRefinementWinSize = options_.refinement_window;
   parameters_->cornerRefinementMaxIterations = options_.refinement_max_iterations;
   parameters_->cornerRefinementMinAccuracy = options_.refinement_min_accuracy;
@@ -174,6 +196,10 @@ void MarkerDetector::refine_corners(const cv::Mat& grey,
     const int half = std::clamp(static_cast<int>(std::lround(kWindowPerCell * min_edge / cells)), 1,
                                 options_.refinement_window);
     cv::cornerSubPix(grey, quad, cv::Size(half, half), cv::Size(-1, -1), criteria);
+    if (options_.corner_refinement == CornerRefinement::kEdgeLines) {
+      std::array<cv::Point2f, 4> q{quad[0], quad[1], quad[2], quad[3]};
+      if (refine_corners_by_edges(grey, q, cells)) quad.assign(q.begin(), q.end());
+    }
   }
 }
 
@@ -200,7 +226,10 @@ std::vector<MarkerObservation> MarkerDetector::detect(const cv::Mat& image) cons
   std::vector<int> ids;
   cv::aruco::detectMarkers(grey, dictionary_, corners, ids, parameters_);
 
-  if (options_.corner_refinement == CornerRefinement::kSubpixel) refine_corners(grey, corners);
+  if (options_.corner_refinement == CornerRefinement::kSubpixel ||
+      options_.corner_refinement == CornerRefinement::kEdgeLines) {
+    refine_corners(grey, corners);
+  }
 
   std::vector<MarkerObservation> out;
   out.reserve(ids.size());
@@ -214,6 +243,7 @@ std::vector<MarkerObservation> MarkerDetector::detect(const cv::Mat& image) cons
       obs.corners[c] = {corners[i][c].x, corners[i][c].y};
     out.push_back(obs);
   }
+  remove_nested_duplicates(out);
   std::sort(out.begin(), out.end(), [](const MarkerObservation& a, const MarkerObservation& b) {
     if (a.id != b.id) return a.id < b.id;
     return a.centre().x() < b.centre().x();

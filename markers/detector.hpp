@@ -21,10 +21,12 @@
 namespace coloc::markers {
 
 enum class CornerRefinement {
-  kNone,      // integer-ish corners from the polygon fit
-  kSubpixel,  // cv::cornerSubPix on the four corners (default: sub-pixel and cheap)
-  kContour,   // line fit on the contour points
-  kAprilTag,  // AprilTag 2 quad detection (slow; for AprilTag dictionaries)
+  kNone,       // integer-ish corners from the polygon fit
+  kSubpixel,   // cv::cornerSubPix on the four corners (default: sub-pixel and cheap)
+  kContour,    // line fit on the contour points
+  kAprilTag,   // AprilTag 2 quad detection (slow; for AprilTag dictionaries)
+  kEdgeLines,  // sub-pixel, then lines fitted to the four sides (edge_refine.hpp): the most
+               // precise on undistorted images (scanner cube faces); falls back to kSubpixel
 };
 
 struct DetectorOptions {

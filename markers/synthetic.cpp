@@ -41,10 +41,23 @@ cv::Rect marker_bbox(const Camera& camera, const SE3& camera_from_marker, double
 void render_marker(cv::Mat& image, const Camera& camera, const SE3& camera_from_marker,
                    const cv::aruco::Dictionary& dictionary, int id, double marker_size,
                    const RenderOptions& options) {
-  if (image.type() != CV_8UC1)
-    throw Error("render_marker: want an 8-bit grey image", {.field = "image"});
   if (image.cols != image_width(camera) || image.rows != image_height(camera)) {
     throw Error("render_marker: image size differs from the camera's", {.field = "image"});
+  }
+  const int cells = dictionary.markerSize + 2;
+  const double half_extent = 0.5 * marker_size + options.quiet_zone_cells * marker_size / cells;
+  const cv::Rect box = marker_bbox(camera, camera_from_marker, half_extent, image.cols, image.rows);
+  if (box.empty()) return;
+  render_marker_rays(
+      image, box, [&](const Eigen::Vector2d& pixel) { return unproject(camera, pixel); },
+      camera_from_marker, dictionary, id, marker_size, options);
+}
+
+void render_marker_rays(cv::Mat& image, const cv::Rect& box, const BearingFunction& bearing,
+                        const SE3& camera_from_marker, const cv::aruco::Dictionary& dictionary,
+                        int id, double marker_size, const RenderOptions& options) {
+  if (image.type() != CV_8UC1) {
+    throw Error("render_marker: want an 8-bit grey image", {.field = "image"});
   }
   if (options.supersample < 1) throw Error("must be >= 1", {.field = "supersample"});
   const int cells = dictionary.markerSize + 2;  // data bits plus the one-cell black border
@@ -53,23 +66,22 @@ void render_marker(cv::Mat& image, const Camera& camera, const SE3& camera_from_
   const double cell = marker_size / cells;
   const double half = 0.5 * marker_size;
   const double half_extent = half + options.quiet_zone_cells * cell;
-  const cv::Rect box = marker_bbox(camera, camera_from_marker, half_extent, image.cols, image.rows);
-  if (box.empty()) return;
+  const cv::Rect clipped = box & cv::Rect(0, 0, image.cols, image.rows);
 
   const SE3 marker_from_camera = camera_from_marker.inverse();
   const Eigen::Matrix3d r = marker_from_camera.rotation();
   const Eigen::Vector3d o = marker_from_camera.translation();
   const int n = options.supersample;
-  for (int y = box.y; y < box.y + box.height; ++y) {
+  for (int y = clipped.y; y < clipped.y + clipped.height; ++y) {
     unsigned char* row = image.ptr<unsigned char>(y);
-    for (int x = box.x; x < box.x + box.width; ++x) {
+    for (int x = clipped.x; x < clipped.x + clipped.width; ++x) {
       double sum = 0.0;
       int hits = 0;
       for (int sy = 0; sy < n; ++sy) {
         for (int sx = 0; sx < n; ++sx) {
           const Eigen::Vector2d pixel(x - 0.5 + (sx + 0.5) / n, y - 0.5 + (sy + 0.5) / n);
-          const Eigen::Vector3d d = r * unproject(camera, pixel);
-          if (std::abs(d.z()) < 1e-12) continue;
+          const Eigen::Vector3d d = r * bearing(pixel);
+          if (!d.allFinite() || std::abs(d.z()) < 1e-12) continue;
           const double t = -o.z() / d.z();
           if (!(t > 0.0)) continue;
           const Eigen::Vector3d p = o + t * d;

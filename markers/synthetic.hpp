@@ -4,6 +4,7 @@
 // plane, so any camera model of slam/core works and corner positions are exact up to the
 // anti-aliasing of the supersampling.
 
+#include <functional>
 #include <opencv2/aruco/dictionary.hpp>
 #include <opencv2/core/mat.hpp>
 
@@ -26,5 +27,13 @@ struct RenderOptions {
 void render_marker(cv::Mat& image, const Camera& camera, const SE3& camera_from_marker,
                    const cv::aruco::Dictionary& dictionary, int id, double marker_size,
                    const RenderOptions& options = {});
+
+// The general form, for image models that are not a coloc::Camera (spherical panoramas):
+// `bearing(pixel)` gives the ray of a pixel in the camera frame (any length, or NaN for pixels
+// outside the model); only pixels inside `box` are drawn.
+using BearingFunction = std::function<Eigen::Vector3d(const Eigen::Vector2d& pixel)>;
+void render_marker_rays(cv::Mat& image, const cv::Rect& box, const BearingFunction& bearing,
+                        const SE3& camera_from_marker, const cv::aruco::Dictionary& dictionary,
+                        int id, double marker_size, const RenderOptions& options = {});
 
 }  // namespace coloc::markers
