@@ -1,0 +1,179 @@
+#include <spdlog/spdlog.h>
+
+#include <cstdio>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "registration/twin/scan.hpp"
+#include "slam/core/error.hpp"
+
+// The E57 part needs coloc_e57io's writer; CMake defines COLOC_TWIN_E57 when it is there.
+#if COLOC_TWIN_E57
+#include "e57io/writer.hpp"
+#endif
+
+namespace coloc::registration::twin {
+#if COLOC_TWIN_E57
+namespace {
+
+e57::Pose to_e57(const SE3& pose) {
+  const Eigen::Quaterniond& q = pose.quaternion();
+  return {{q.w(), q.x(), q.y(), q.z()},
+          {pose.translation().x(), pose.translation().y(), pose.translation().z()}};
+}
+
+// Deterministic guid-shaped strings (E57 requires unique guids, not random ones).
+std::string guid(std::uint64_t seed, std::uint64_t kind, std::uint64_t index) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "{%08llx-%04llx-4000-8000-%012llx}",
+                static_cast<unsigned long long>(seed & 0xffffffffull),
+                static_cast<unsigned long long>(kind & 0xffffull),
+                static_cast<unsigned long long>(index & 0xffffffffffffull));
+  return buf;
+}
+
+}  // namespace
+#endif
+
+struct ScanFileWriter::Impl {
+#if COLOC_TWIN_E57
+  std::unique_ptr<e57::Writer> e57;
+#endif
+  std::filesystem::path ply_path;
+  std::filesystem::path ply_tmp;
+  std::ofstream ply_body;
+  std::size_t points = 0;
+  std::uint64_t seed = 0;
+  int jpeg_quality = 92;
+  bool closed = false;
+};
+
+ScanFileWriter::ScanFileWriter(const std::filesystem::path& e57_path,
+                               const std::filesystem::path& ply_path, std::uint64_t seed,
+                               int jpeg_quality)
+    : impl_(std::make_unique<Impl>()) {
+#if COLOC_TWIN_E57
+  e57::WriterOptions wo;
+  wo.guid = guid(seed, 0xf11e, 0);
+  wo.creation_time = e57::DateTime{1.4e9, false};
+  wo.library_version = "coloc twin generator";
+  impl_->e57 = std::make_unique<e57::Writer>(e57_path, wo);
+#else
+  spdlog::warn("twin: built without the e57io writer; {} is not written", e57_path.string());
+#endif
+  impl_->ply_path = ply_path;
+  impl_->ply_tmp = ply_path;
+  impl_->ply_tmp += ".body";
+  impl_->ply_body.open(impl_->ply_tmp, std::ios::binary);
+  if (!impl_->ply_body) throw Error("cannot write", {.file = impl_->ply_tmp.string()});
+  impl_->seed = seed;
+  impl_->jpeg_quality = jpeg_quality;
+}
+
+ScanFileWriter::~ScanFileWriter() {
+  if (!impl_->closed) {
+    impl_->ply_body.close();
+    std::error_code ec;
+    std::filesystem::remove(impl_->ply_tmp, ec);
+  }
+}
+
+void ScanFileWriter::add(const ScanStation& st) {
+#if COLOC_TWIN_E57
+  add_e57(st);
+#endif
+  // PLY body: world-frame float xyz + RGB.
+  for (std::size_t i = 0; i < st.points.size(); ++i) {
+    const Eigen::Vector3f p = (st.world_from_station * st.points[i]).cast<float>();
+    impl_->ply_body.write(reinterpret_cast<const char*>(p.data()), 3 * sizeof(float));
+    impl_->ply_body.write(reinterpret_cast<const char*>(st.colours[i].data()), 3);
+  }
+  impl_->points += st.points.size();
+}
+
+#if COLOC_TWIN_E57
+void ScanFileWriter::add_e57(const ScanStation& st) {
+  using e57::FieldSpec;
+  using e57::PointField;
+  e57::Data3D header;
+  header.guid = guid(impl_->seed, 0x5ca7, static_cast<std::uint64_t>(st.index));
+  header.name = "station " + std::to_string(st.index);
+  header.description = "coloc digital twin: synthetic terrestrial scan";
+  header.sensor_vendor = "coloc";
+  header.sensor_model = "twin virtual scanner";
+  header.pose = to_e57(st.world_from_station);
+  const std::vector<FieldSpec> fields{
+      FieldSpec::scaled(PointField::kCartesianX, 1e-4, -200.0, 200.0),
+      FieldSpec::scaled(PointField::kCartesianY, 1e-4, -200.0, 200.0),
+      FieldSpec::scaled(PointField::kCartesianZ, 1e-4, -200.0, 200.0),
+      FieldSpec::integer(PointField::kColorRed, 0, 255),
+      FieldSpec::integer(PointField::kColorGreen, 0, 255),
+      FieldSpec::integer(PointField::kColorBlue, 0, 255)};
+  e57::PointBuffer buf;
+  buf.reset(e57::field_bit(PointField::kCartesianX) | e57::field_bit(PointField::kCartesianY) |
+                e57::field_bit(PointField::kCartesianZ) | e57::field_bit(PointField::kColorRed) |
+                e57::field_bit(PointField::kColorGreen) | e57::field_bit(PointField::kColorBlue),
+            st.points.size());
+  for (std::size_t i = 0; i < st.points.size(); ++i) {
+    buf.cartesian_x[i] = st.points[i].x();
+    buf.cartesian_y[i] = st.points[i].y();
+    buf.cartesian_z[i] = st.points[i].z();
+    buf.color_red[i] = st.colours[i][0];
+    buf.color_green[i] = st.colours[i][1];
+    buf.color_blue[i] = st.colours[i][2];
+  }
+  impl_->e57->write_scan(header, fields, buf);
+
+  const PinholeCamera& cam = st.face_camera;
+  const double pixel = 1e-5;  // metres: a nominal 10 micron pixel; only focal/pixel matters
+  for (std::size_t f = 0; f < 6; ++f) {
+    e57::Image2D im;
+    im.guid = guid(impl_->seed, 0x1a6e, static_cast<std::uint64_t>(st.index) * 6 + f);
+    im.name = "station " + std::to_string(st.index) + " face " + std::to_string(f);
+    im.description = "cube face; pose = world_from_camera, camera x right, y down, z forward";
+    im.associated_data3d_guid = header.guid;
+    im.pose = to_e57(st.world_from_face[f]);
+    im.representation = e57::ImageRepresentation::kPinhole;
+    im.format = e57::ImageFormat::kJpeg;
+    im.width = cam.width;
+    im.height = cam.height;
+    im.pixel_width = pixel;
+    im.pixel_height = pixel;
+    im.focal_length = cam.fx * pixel;
+    im.principal_point_x = cam.cx;
+    im.principal_point_y = cam.cy;
+    cv::Mat bgr;
+    cv::cvtColor(st.faces[f], bgr, cv::COLOR_RGB2BGR);
+    std::vector<std::uint8_t> jpeg;
+    cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, impl_->jpeg_quality});
+    impl_->e57->add_image(im, jpeg);
+  }
+}
+#else
+void ScanFileWriter::add_e57(const ScanStation&) {}
+#endif
+
+std::size_t ScanFileWriter::close() {
+#if COLOC_TWIN_E57
+  impl_->e57->close();
+#endif
+  impl_->ply_body.close();
+  {
+    std::ofstream out(impl_->ply_path, std::ios::binary);
+    if (!out) throw Error("cannot write", {.file = impl_->ply_path.string()});
+    out << "ply\nformat binary_little_endian 1.0\ncomment coloc digital twin scan, world frame, "
+           "metres\nelement vertex "
+        << impl_->points
+        << "\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\n"
+           "property uchar green\nproperty uchar blue\nend_header\n";
+    std::ifstream body(impl_->ply_tmp, std::ios::binary);
+    out << body.rdbuf();
+    if (!out) throw Error("cannot write", {.file = impl_->ply_path.string()});
+  }
+  std::filesystem::remove(impl_->ply_tmp);
+  impl_->closed = true;
+  return impl_->points;
+}
+
+}  // namespace coloc::registration::twin
