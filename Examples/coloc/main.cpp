@@ -25,7 +25,12 @@ int main(int argc, char** argv) {
     if (verbose) spdlog::set_level(spdlog::level::debug);
   });
 
+  // `coloc bench <what>`: speed figures for DESIGN.md section 5; each module adds its own.
+  CLI::App& bench = *app.add_subcommand("bench", "Measure speed (prints figures)");
+  bench.require_subcommand(1);
+
   coloc::cli::add_demo_verb(app);
+  coloc::cli::add_handeye_verb(app, bench);
   coloc::cli::add_eval_verb(app);
 
   try {
