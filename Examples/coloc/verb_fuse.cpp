@@ -1,0 +1,348 @@
+// coloc fuse: the drift-filtered fusion as an OSC process (--listen) or on recorded TUM files
+// (--xr/--global); coloc bench fusion: accuracy of the compared methods on a simulated session,
+// the cost of one fused pose and the OSC loopback round trip, in one table.
+
+#include <signal.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <filesystem>
+#include <numbers>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "Examples/coloc/cli_common.hpp"
+#include "Examples/coloc/verbs.hpp"
+#include "fusion/benchmark.hpp"
+#include "fusion/fuser.hpp"
+#include "fusion/osc_node.hpp"
+#include "fusion/simulation.hpp"
+#include "slam/core/error.hpp"
+#include "slam/core/trajectory.hpp"
+
+namespace coloc::cli {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+struct FuseArgs {
+  // OSC node
+  int listen = -1;
+  std::string bind = "127.0.0.1";
+  std::vector<std::string> publish;
+  double duration = 0.0;
+  // Recorded files
+  std::string xr_file, global_file, out_file;
+  double latency = 0.0;
+  // Filter
+  double process_noise = 1e-3, measurement_noise = 0.9;
+  double translation_sigma = 0.03, rotation_sigma = 0.01, gate_chi2 = 16.27;
+  bool no_gating = false, no_time_alignment = false;
+  double hold_after = 0.5, max_speed = 0.0, max_rate_deg = 0.0;
+  bool json = false;
+};
+
+fusion::FuserOptions fuser_options(const FuseArgs& a) {
+  fusion::FuserOptions o;
+  o.filter.process_noise = a.process_noise;
+  o.filter.measurement_noise = a.measurement_noise;
+  o.filter.translation_sigma = a.translation_sigma;
+  o.filter.rotation_sigma = a.rotation_sigma;
+  o.filter.gate_chi2 = a.gate_chi2;
+  o.filter.gating = !a.no_gating;
+  o.time_alignment = !a.no_time_alignment;
+  o.hold_after = a.hold_after;
+  o.max_correction_speed = a.max_speed;
+  o.max_correction_rate = a.max_rate_deg * kDeg;
+  o.check();
+  // Effective values at start (OpenVINS habit), on stderr.
+  spdlog::info(
+      "fusion: Q {} R {} gating {} (chi2 {}, sigma {} m / {}) time alignment {} hold after {} s "
+      "rate limit {} m/s {} deg/s",
+      o.filter.process_noise, o.filter.measurement_noise, o.filter.gating, o.filter.gate_chi2,
+      o.filter.translation_sigma, o.filter.rotation_sigma, o.time_alignment, o.hold_after,
+      o.max_correction_speed, a.max_rate_deg);
+  return o;
+}
+
+void print_stats(const fusion::FuserStats& s, const fusion::OscStats* osc,
+                 std::uint64_t out_of_order, std::uint64_t published, bool json) {
+  if (json) {
+    std::ostringstream o;
+    o << "{\"xr_poses\": " << s.xr_poses << ", \"global_poses\": " << s.global_poses
+      << ", \"accepted\": " << s.accepted << ", \"initialized\": " << s.initialized
+      << ", \"rejected\": " << s.rejected << ", \"lost\": " << s.lost
+      << ", \"unaligned\": " << s.unaligned << ", \"out_of_order\": " << s.out_of_order;
+    if (osc != nullptr) {
+      o << ", \"osc\": {\"packets\": " << osc->packets << ", \"messages\": " << osc->messages
+        << ", \"malformed\": " << osc->malformed << ", \"oversized\": " << osc->oversized
+        << ", \"wrong_types\": " << osc->wrong_types
+        << ", \"unknown_address\": " << osc->unknown_address
+        << ", \"invalid_values\": " << osc->invalid_values << ", \"out_of_order\": " << out_of_order
+        << ", \"published\": " << published << "}";
+    }
+    o << "}";
+    std::printf("%s\n", o.str().c_str());
+    return;
+  }
+  std::printf(
+      "headset poses %llu, global poses %llu: accepted %llu, initialized %llu, rejected "
+      "(gate) %llu, lost %llu, unaligned %llu, out of order %llu\n",
+      static_cast<unsigned long long>(s.xr_poses), static_cast<unsigned long long>(s.global_poses),
+      static_cast<unsigned long long>(s.accepted), static_cast<unsigned long long>(s.initialized),
+      static_cast<unsigned long long>(s.rejected), static_cast<unsigned long long>(s.lost),
+      static_cast<unsigned long long>(s.unaligned),
+      static_cast<unsigned long long>(s.out_of_order));
+  if (osc != nullptr) {
+    std::printf(
+        "osc: packets %llu, messages %llu, dropped: malformed %llu, oversized %llu, wrong types "
+        "%llu, unknown address %llu, invalid values %llu, old sequence %llu; published %llu\n",
+        static_cast<unsigned long long>(osc->packets),
+        static_cast<unsigned long long>(osc->messages),
+        static_cast<unsigned long long>(osc->malformed),
+        static_cast<unsigned long long>(osc->oversized),
+        static_cast<unsigned long long>(osc->wrong_types),
+        static_cast<unsigned long long>(osc->unknown_address),
+        static_cast<unsigned long long>(osc->invalid_values),
+        static_cast<unsigned long long>(out_of_order), static_cast<unsigned long long>(published));
+    if (!osc->last_error.empty()) std::printf("last dropped packet: %s\n", osc->last_error.c_str());
+  }
+}
+
+// Runs the OSC node until SIGINT/SIGTERM (or `duration` seconds). The signals are blocked
+// before the receiver thread starts and taken synchronously with sigtimedwait: no handler, no
+// polling.
+void run_node(const FuseArgs& a) {
+  fusion::FusionNodeOptions options;
+  options.fuser = fuser_options(a);
+  options.endpoint.bind_address = a.bind;
+  options.endpoint.port = a.listen;
+  options.publish = a.publish;
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  sigset_t previous;
+  pthread_sigmask(SIG_BLOCK, &signals, &previous);
+  // A shell starts background jobs with SIGINT ignored, and an ignored signal is discarded even
+  // while blocked; with the default disposition it stays pending for sigwait.
+  struct sigaction default_action {};
+  default_action.sa_handler = SIG_DFL;
+  struct sigaction previous_int {
+  }, previous_term{};
+  sigaction(SIGINT, &default_action, &previous_int);
+  sigaction(SIGTERM, &default_action, &previous_term);
+  {
+    fusion::FusionNode node(options);
+    node.start();
+    spdlog::info(
+        "fusion node: OSC in on udp {}:{} (/coloc/pose, /coloc/xr_pose, "
+        "/coloc/get_pose), /coloc/fused_pose out to {} target(s); Ctrl-C to stop",
+        a.bind, node.port(), a.publish.size());
+    if (a.duration > 0.0) {
+      timespec timeout{};
+      timeout.tv_sec = static_cast<time_t>(a.duration);
+      timeout.tv_nsec = static_cast<long>((a.duration - static_cast<double>(timeout.tv_sec)) * 1e9);
+      sigtimedwait(&signals, nullptr, &timeout);
+    } else {
+      int received = 0;
+      sigwait(&signals, &received);
+    }
+    node.stop();
+    const fusion::FusionNodeStats s = node.stats();
+    print_stats(s.fuser, &s.osc, s.out_of_order, s.published, a.json);
+  }
+  sigaction(SIGINT, &previous_int, nullptr);
+  sigaction(SIGTERM, &previous_term, nullptr);
+  pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+}
+
+// Replays recorded headset and global trajectories (TUM files, same clock) through the fuser;
+// global poses are delivered `latency` seconds after their stamp.
+void run_files(const FuseArgs& a) {
+  const Trajectory xr = read_tum_trajectory(a.xr_file);
+  const Trajectory global = read_tum_trajectory(a.global_file);
+  fusion::DriftFuser fuser(fuser_options(a));
+  Trajectory fused;
+  fused.reserve(xr.size());
+  std::size_t g = 0;
+  for (const StampedPose& h : xr) {
+    while (g < global.size() && global[g].timestamp + a.latency <= h.timestamp) {
+      fuser.push_global_pose(global[g].timestamp, global[g].world_from_cam);
+      ++g;
+    }
+    fused.push_back(
+        {h.timestamp, fuser.push_xr_pose(h.timestamp, h.world_from_cam).world_from_head});
+  }
+  if (!a.out_file.empty()) write_tum_trajectory(a.out_file, fused);
+  print_stats(fuser.stats(), nullptr, 0, 0, a.json);
+}
+
+void add_filter_options(CLI::App& cmd, FuseArgs& a) {
+  cmd.add_option("--process-noise", a.process_noise, "Kalman Q per global pose (paper: 0.001)")
+      ->capture_default_str();
+  cmd.add_option("--measurement-noise", a.measurement_noise, "Kalman R (paper: 0.9)")
+      ->capture_default_str();
+  cmd.add_option("--translation-sigma", a.translation_sigma,
+                 "Noise of one global pose in metres (scales the gate)")
+      ->capture_default_str();
+  cmd.add_option("--rotation-sigma", a.rotation_sigma,
+                 "Noise of one global pose in quaternion units (~half angle, rad)")
+      ->capture_default_str();
+  cmd.add_option("--gate-chi2", a.gate_chi2, "Mahalanobis gate (squared, 3 dof)")
+      ->capture_default_str();
+  cmd.add_flag("--no-gating", a.no_gating, "Accept every global pose (the paper's filter)");
+  cmd.add_flag("--no-time-alignment", a.no_time_alignment,
+               "Compare global poses with the newest headset pose (the paper's filter)");
+  cmd.add_option("--hold-after", a.hold_after, "Seconds without global poses before HOLDING")
+      ->capture_default_str();
+  cmd.add_option("--max-speed", a.max_speed, "Correction rate limit at the head, m/s (0 = off)")
+      ->capture_default_str();
+  cmd.add_option("--max-rate", a.max_rate_deg, "Correction rate limit, deg/s (0 = off)")
+      ->capture_default_str();
+}
+
+// ---- coloc bench fusion -----------------------------------------------------------------------
+
+struct BenchArgs {
+  fusion::SessionOptions session;
+  std::string vive_log;
+  int round_trips = 2000;
+  bool json = false;
+};
+
+std::filesystem::path default_vive_log() {
+  std::filesystem::path data;
+  if (const char* env = std::getenv("COLOC_DATA"); env != nullptr && *env != '\0') {
+    data = env;
+  } else {
+    data = std::filesystem::path(COLOC_SOURCE_DIR).parent_path() / "shared" / "data";
+  }
+  return data / "vive_tracker_vs_lasertracker/20201002_Exp1_Drift/drift20minExperiment.txt";
+}
+
+void run_bench(BenchArgs a) {
+  std::string noise_source = "default";
+  const std::filesystem::path log =
+      a.vive_log.empty() ? default_vive_log() : std::filesystem::path(a.vive_log);
+  if (std::filesystem::exists(log)) {
+    const fusion::StaticLogStats v = fusion::analyze_static_drift_log(log);
+    a.session.drift.position_noise = v.position_noise;
+    std::ostringstream s;
+    s << "Vive log: " << v.samples << " poses, noise " << 1e3 * v.position_noise
+      << " mm, 20-min wander " << 1e3 * v.wander << " mm";
+    noise_source = s.str();
+  }
+  const fusion::SimulatedSession session = fusion::simulate_session(a.session);
+  const std::vector<fusion::MethodResult> methods = fusion::compare_methods(session);
+  const SampleStats pose_cost = fusion::time_fused_pose();
+  const SampleStats round_trip = fusion::time_osc_round_trip(a.round_trips);
+
+  if (a.json) {
+    std::ostringstream o;
+    o << "{\"methods\": [";
+    for (std::size_t i = 0; i < methods.size(); ++i) {
+      const fusion::ErrorMetrics& m = methods[i].metrics;
+      o << (i ? ", " : "") << "{\"name\": " << json_string(methods[i].name)
+        << ", \"position_rmse_m\": " << json_number(m.position_rmse)
+        << ", \"position_p95_m\": " << json_number(m.position_p95)
+        << ", \"rotation_rmse_deg\": " << json_number(m.rotation_rmse / kDeg)
+        << ", \"rotation_p95_deg\": " << json_number(m.rotation_p95 / kDeg)
+        << ", \"jitter_position_p99_m\": " << json_number(m.jitter_position_p99)
+        << ", \"jitter_rotation_p99_deg\": " << json_number(m.jitter_rotation_p99 / kDeg) << "}";
+    }
+    o << "], \"fused_pose_us\": {\"median\": " << json_number(pose_cost.median)
+      << ", \"p99\": " << json_number(pose_cost.p99)
+      << "}, \"osc_round_trip_us\": {\"median\": " << json_number(round_trip.median)
+      << ", \"p99\": " << json_number(round_trip.p99) << "}}";
+    std::printf("%s\n", o.str().c_str());
+    return;
+  }
+  const fusion::SessionOptions& s = a.session;
+  std::printf(
+      "fusion: simulated %.0f s walk (seed %u), headset %.0f Hz drifting (%.1f mm/s bias, %s), "
+      "global poses %.0f Hz, %.1f cm / %.2f deg noise, %.0f ms latency, %.0f %% outliers\n",
+      s.duration, s.seed, s.headset_rate, 1e3 * s.drift.position_bias, noise_source.c_str(),
+      s.global_rate, 100.0 * s.global_position_sigma, s.global_rotation_sigma / kDeg,
+      1e3 * s.global_latency, 100.0 * s.outlier_fraction);
+  std::printf("%-20s %9s %9s %9s %9s %11s %11s\n", "method", "pos RMSE", "pos p95", "rot RMSE",
+              "rot p95", "jitter p99", "jitter p99");
+  std::printf("%-20s %9s %9s %9s %9s %11s %11s\n", "", "cm", "cm", "deg", "deg", "mm", "deg");
+  for (const fusion::MethodResult& r : methods) {
+    const fusion::ErrorMetrics& m = r.metrics;
+    std::printf("%-20s %9.2f %9.2f %9.3f %9.3f %11.2f %11.3f\n", r.name.c_str(),
+                100.0 * m.position_rmse, 100.0 * m.position_p95, m.rotation_rmse / kDeg,
+                m.rotation_p95 / kDeg, 1e3 * m.jitter_position_p99, m.jitter_rotation_p99 / kDeg);
+  }
+  std::printf("%-20s median %8.3f us   p99 %8.3f us   (target < 2 us)\n", "one fused pose",
+              pose_cost.median, pose_cost.p99);
+  std::printf("%-20s median %8.1f us   p99 %8.1f us   (target < 200 us median, %zu trips)\n",
+              "OSC round trip", round_trip.median, round_trip.p99, round_trip.count);
+}
+
+}  // namespace
+
+void add_fuse_verb(CLI::App& app, CLI::App& bench) {
+  auto args = std::make_shared<FuseArgs>();
+  CLI::App& cmd = *app.add_subcommand(
+      "fuse",
+      "Fuse drifting headset poses with global poses: as an OSC node (--listen) or on recorded "
+      "TUM files (--xr/--global)");
+  auto* listen = cmd.add_option("--listen", args->listen,
+                                "UDP port for OSC input (/coloc/pose, /coloc/xr_pose, "
+                                "/coloc/get_pose); 0 = any free port")
+                     ->check(CLI::Range(0, 65535));
+  cmd.add_option("--bind", args->bind, "Address to bind (loopback unless told otherwise)")
+      ->capture_default_str();
+  cmd.add_option("--publish", args->publish,
+                 "Send /coloc/fused_pose to osc.udp://HOST:PORT (repeatable)");
+  cmd.add_option("--duration", args->duration, "Stop after this many seconds (0: at SIGINT)")
+      ->capture_default_str();
+  auto* xr = cmd.add_option("--xr", args->xr_file, "Recorded headset poses xr_from_head (TUM)")
+                 ->check(CLI::ExistingFile);
+  auto* global = cmd.add_option("--global", args->global_file,
+                                "Recorded global poses world_from_head, stamped at exposure (TUM)")
+                     ->check(CLI::ExistingFile);
+  cmd.add_option("--out", args->out_file, "Write the fused poses world_from_head (TUM)");
+  cmd.add_option("--latency", args->latency,
+                 "Replay: deliver global poses this many seconds after their stamp")
+      ->capture_default_str();
+  xr->needs(global);
+  global->needs(xr);
+  listen->excludes(xr);
+  add_filter_options(cmd, *args);
+  cmd.add_flag("--json", args->json, "Statistics as JSON on stdout");
+  cmd.callback([args, &cmd] {
+    if (!args->xr_file.empty()) {
+      run_files(*args);
+    } else if (args->listen >= 0) {
+      run_node(*args);
+    } else {
+      throw CLI::RequiredError("--listen PORT or --xr/--global");
+    }
+    (void)cmd;
+  });
+
+  auto bargs = std::make_shared<BenchArgs>();
+  CLI::App& b = *bench.add_subcommand(
+      "fusion", "Fusion accuracy on a simulated session, cost of one fused pose, OSC round trip");
+  b.add_option("--duration", bargs->session.duration, "Simulated seconds")->capture_default_str();
+  b.add_option("--rate", bargs->session.global_rate, "Global pose rate, Hz")->capture_default_str();
+  b.add_option("--latency", bargs->session.global_latency, "Global pose latency, s")
+      ->capture_default_str();
+  b.add_option("--outliers", bargs->session.outlier_fraction, "Fraction of gross outliers")
+      ->capture_default_str();
+  b.add_option("--seed", bargs->session.seed, "Random seed")->capture_default_str();
+  b.add_option("--vive-log", bargs->vive_log,
+               "Static Vive drift log for the headset noise (default: the shared data's)");
+  b.add_option("--round-trips", bargs->round_trips, "OSC round trips to time")
+      ->capture_default_str();
+  b.add_flag("--json", bargs->json, "Machine-readable output on stdout");
+  b.callback([bargs] { run_bench(*bargs); });
+}
+
+}  // namespace coloc::cli
