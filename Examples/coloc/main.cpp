@@ -31,6 +31,7 @@ int main(int argc, char** argv) {
 
   coloc::cli::add_demo_verb(app);
   coloc::cli::add_handeye_verb(app, bench);
+  coloc::cli::add_fuse_verb(app, bench);
   coloc::cli::add_eval_verb(app);
 
   try {

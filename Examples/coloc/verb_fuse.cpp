@@ -24,6 +24,12 @@
 #include "slam/core/error.hpp"
 #include "slam/core/trajectory.hpp"
 
+// The CLI's CMakeLists defines COLOC_SOURCE_DIR; without it the shared data is looked up only
+// through $COLOC_DATA or ./shared/data.
+#ifndef COLOC_SOURCE_DIR
+#define COLOC_SOURCE_DIR "."
+#endif
+
 namespace coloc::cli {
 namespace {
 

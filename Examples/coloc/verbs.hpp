@@ -10,5 +10,6 @@ namespace coloc::cli {
 void add_eval_verb(CLI::App& app);
 void add_demo_verb(CLI::App& app);
 void add_handeye_verb(CLI::App& app, CLI::App& bench);
+void add_fuse_verb(CLI::App& app, CLI::App& bench);
 
 }  // namespace coloc::cli
