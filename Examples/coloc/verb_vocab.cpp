@@ -175,8 +175,8 @@ std::vector<fs::path> every_nth(const std::vector<fs::path>& v, std::size_t n) {
   return out;
 }
 
-void run_bench_orb(const BenchOrbArgs& a) {
-  const fs::path data(a.data);
+// 640x480 frames of TUM fr1 (xyz, every 4th of rpy) and every 10th of 7-Scenes.
+std::vector<fs::path> bench_orb_images(const fs::path& data) {
   std::vector<fs::path> images;
   for (const auto& [dir, step] : {std::pair<const char*, std::size_t>{"tum_fr1_xyz_37f/rgb", 1},
                                   {"tum_fr1_rpy_180f/rgb", 4},
@@ -188,7 +188,12 @@ void run_bench_orb(const BenchOrbArgs& a) {
     const auto found = every_nth(find_images(data / dir), step);
     images.insert(images.end(), found.begin(), found.end());
   }
-  if (images.empty()) throw Error("no TUM or 7-Scenes images found", {.file = a.data});
+  if (images.empty()) throw Error("no TUM or 7-Scenes images found", {.file = data.string()});
+  return images;
+}
+
+void run_bench_orb(const BenchOrbArgs& a) {
+  const std::vector<fs::path> images = bench_orb_images(a.data);
 
   // One core for both, so the comparison is the algorithm's, not OpenCV's thread pool.
   cv::setNumThreads(1);
@@ -288,13 +293,55 @@ SE3 read_seven_scenes_pose(const fs::path& path) {
   return SE3::from_matrix(m);
 }
 
-void run_bench_bow(const BenchBowArgs& a) {
-  const fs::path dir = fs::path(a.data) / "sevenscenes_600f";
+std::vector<fs::path> seven_scenes_frames(const fs::path& dir) {
   std::vector<fs::path> frames;
   for (const fs::path& p : find_images(dir)) {
     if (p.filename().string().find(".color.") != std::string::npos) frames.push_back(p);
   }
   if (frames.empty()) throw Error("no 7-Scenes colour frames found", {.file = dir.string()});
+  return frames;
+}
+
+struct BowRecall {
+  std::size_t frames;
+  std::uint32_t words;
+  double load_ms;
+  std::size_t queries;
+  std::size_t answerable;  // queries with a true match in their database
+  std::size_t database;
+  std::size_t hit1;
+  std::size_t hit5;
+  double query_median_ms;
+};
+
+void print_bow_recall(const BenchBowArgs& a, const BowRecall& b) {
+  const double r1 = static_cast<double>(b.hit1) / static_cast<double>(b.queries);
+  const double r5 = static_cast<double>(b.hit5) / static_cast<double>(b.queries);
+  if (a.json) {
+    std::printf(
+        "{\"queries\": %zu, \"answerable\": %zu, \"database\": %zu, \"recall_at_1\": %s, "
+        "\"recall_at_5\": %s, \"query_median_ms\": %s, \"vocabulary_load_ms\": %s}\n",
+        b.queries, b.answerable, b.database, json_number(r1).c_str(), json_number(r5).c_str(),
+        json_number(b.query_median_ms).c_str(), json_number(b.load_ms).c_str());
+    return;
+  }
+  std::printf(
+      "place recognition on 7-Scenes (%zu frames), vocabulary %s (%u words, loaded in "
+      "%.0f ms)\n",
+      b.frames, a.vocabulary.c_str(), b.words, b.load_ms);
+  std::printf(
+      "queries: every %d-th frame (%zu; %zu with a true match in the database); "
+      "database: the other %zu frames, minus +-%d around each query\n",
+      a.query_step, b.queries, b.answerable, b.database, a.exclude);
+  std::printf("hit: camera centre within %.2f m and rotation within %.0f deg\n", a.max_distance,
+              a.max_angle_deg);
+  std::printf("recall@1  %.3f  (%zu/%zu)\n", r1, b.hit1, b.queries);
+  std::printf("recall@5  %.3f  (%zu/%zu)\n", r5, b.hit5, b.queries);
+  std::printf("query     %.3f ms median\n", b.query_median_ms);
+}
+
+void run_bench_bow(const BenchBowArgs& a) {
+  const std::vector<fs::path> frames = seven_scenes_frames(fs::path(a.data) / "sevenscenes_600f");
   Stopwatch load_watch;
   const auto vocabulary = slam::bow::Vocabulary::load(a.vocabulary);
   const double load_ms = load_watch.elapsed_ms();
@@ -352,29 +399,8 @@ void run_bench_bow(const BenchBowArgs& a) {
       break;
     }
   }
-  const double r1 = static_cast<double>(hit1) / static_cast<double>(queries);
-  const double r5 = static_cast<double>(hit5) / static_cast<double>(queries);
-  if (a.json) {
-    std::printf(
-        "{\"queries\": %zu, \"answerable\": %zu, \"database\": %zu, \"recall_at_1\": %s, "
-        "\"recall_at_5\": %s, \"query_median_ms\": %s, \"vocabulary_load_ms\": %s}\n",
-        queries, answerable, database.size(), json_number(r1).c_str(), json_number(r5).c_str(),
-        json_number(summarize(query_ms).median).c_str(), json_number(load_ms).c_str());
-    return;
-  }
-  std::printf(
-      "place recognition on 7-Scenes (%zu frames), vocabulary %s (%u words, loaded in "
-      "%.0f ms)\n",
-      frames.size(), a.vocabulary.c_str(), vocabulary.word_count(), load_ms);
-  std::printf(
-      "queries: every %d-th frame (%zu; %zu with a true match in the database); "
-      "database: the other %zu frames, minus +-%d around each query\n",
-      a.query_step, queries, answerable, database.size(), a.exclude);
-  std::printf("hit: camera centre within %.2f m and rotation within %.0f deg\n", a.max_distance,
-              a.max_angle_deg);
-  std::printf("recall@1  %.3f  (%zu/%zu)\n", r1, hit1, queries);
-  std::printf("recall@5  %.3f  (%zu/%zu)\n", r5, hit5, queries);
-  std::printf("query     %.3f ms median\n", summarize(query_ms).median);
+  print_bow_recall(a, {frames.size(), vocabulary.word_count(), load_ms, queries, answerable,
+                       database.size(), hit1, hit5, summarize(query_ms).median});
 }
 
 }  // namespace

@@ -71,6 +71,30 @@ class Reader {
   std::size_t offset_ = 0;
 };
 
+// Magic, version and checksum: what makes a file ours and intact, checked before anything in it
+// is trusted. Leaves `r` after the version field.
+void check_envelope(const std::vector<std::uint8_t>& bytes, Reader& r) {
+  if (bytes.size() < 8 || std::memcmp(bytes.data(), kMagic, 8) != 0) {
+    r.fail("not a coloc vocabulary (bad magic; expected \"COLOCVOC\")", "magic", 0);
+  }
+  r.uint(8, "magic");
+  const std::uint32_t version = r.u32("version");
+  if (version != kVersion) {
+    r.fail("unsupported version " + std::to_string(version) + " (this build reads version " +
+               std::to_string(kVersion) + ")",
+           "version", 8);
+  }
+  if (bytes.size() < kHeaderSize + 8) r.fail("truncated", "header", bytes.size());
+  const std::size_t body = bytes.size() - 8;
+  std::uint64_t stored = 0;
+  for (int i = 0; i < 8; ++i) {
+    stored |= static_cast<std::uint64_t>(bytes[body + static_cast<std::size_t>(i)]) << (8 * i);
+  }
+  if (stored != fnv1a(bytes.data(), body)) {
+    r.fail("checksum mismatch: the file is damaged or truncated", "checksum", body);
+  }
+}
+
 }  // namespace
 
 std::vector<std::uint8_t> Vocabulary::serialize() const {
@@ -121,24 +145,7 @@ Vocabulary Vocabulary::load(const std::filesystem::path& path) {
 Vocabulary Vocabulary::deserialize(const std::vector<std::uint8_t>& bytes,
                                    const std::filesystem::path& source) {
   Reader r(bytes, source.string());
-  if (bytes.size() < 8 || std::memcmp(bytes.data(), kMagic, 8) != 0) {
-    r.fail("not a coloc vocabulary (bad magic; expected \"COLOCVOC\")", "magic", 0);
-  }
-  r.uint(8, "magic");
-  const std::uint32_t version = r.u32("version");
-  if (version != kVersion) {
-    r.fail("unsupported version " + std::to_string(version) + " (this build reads version " +
-               std::to_string(kVersion) + ")",
-           "version", 8);
-  }
-  if (bytes.size() < kHeaderSize + 8) r.fail("truncated", "header", bytes.size());
-  const std::size_t body = bytes.size() - 8;
-  std::uint64_t stored = 0;
-  for (int i = 0; i < 8; ++i)
-    stored |= static_cast<std::uint64_t>(bytes[body + static_cast<std::size_t>(i)]) << (8 * i);
-  if (stored != fnv1a(bytes.data(), body)) {
-    r.fail("checksum mismatch: the file is damaged or truncated", "checksum", body);
-  }
+  check_envelope(bytes, r);
 
   Vocabulary v;
   const std::size_t params_at = r.offset();
