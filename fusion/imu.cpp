@@ -2,12 +2,42 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <utility>
 
 #include "slam/core/error.hpp"
 
 namespace coloc::fusion {
+
+std::vector<ImuSample> read_imu_csv(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw Error("cannot open the IMU log", ErrorContext{.file = path.string()});
+  std::vector<ImuSample> samples;
+  std::string line;
+  std::int64_t number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    if (line.empty() || line[0] == '#' || line == "\r") continue;
+    std::replace(line.begin(), line.end(), ',', ' ');
+    std::istringstream fields(line);
+    double nanoseconds = 0.0;
+    ImuSample s;
+    if (!(fields >> nanoseconds >> s.gyro.x() >> s.gyro.y() >> s.gyro.z() >> s.accel.x() >>
+          s.accel.y() >> s.accel.z()) ||
+        !s.gyro.allFinite() || !s.accel.allFinite()) {
+      throw Error("expected 't[ns],wx,wy,wz,ax,ay,az'",
+                  ErrorContext{.file = path.string(), .line = number});
+    }
+    s.time = nanoseconds * 1e-9;
+    if (!samples.empty() && !(s.time > samples.back().time)) {
+      throw Error("timestamps must increase", ErrorContext{.file = path.string(), .line = number});
+    }
+    samples.push_back(s);
+  }
+  return samples;
+}
 
 std::optional<ImuState> initialize_static(std::span<const ImuSample> samples,
                                           const Eigen::Vector3d& gravity) {

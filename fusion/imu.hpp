@@ -18,8 +18,10 @@
 // filter then removes what is left, exactly as in headset mode, and gates bad global poses.
 
 #include <deque>
+#include <filesystem>
 #include <optional>
 #include <span>
+#include <vector>
 
 #include "fusion/fuser.hpp"
 #include "fusion/pose_buffer.hpp"
@@ -44,6 +46,10 @@ struct ImuState {
 
   SE3 pose() const { return SE3(odom_from_body, position); }
 };
+
+// Reads an IMU log in the EuRoC/ASL CSV layout ("t[ns],wx,wy,wz,ax,ay,az", '#' header), as
+// EuRoC's imu0/data.csv and our recorder's imu.txt. Throws coloc::Error naming file and line.
+std::vector<ImuSample> read_imu_csv(const std::filesystem::path& path);
 
 // Static initialization from samples at rest: gyro bias = mean gyro; rotation with zero yaw
 // whose gravity direction matches the mean accelerometer reading. nullopt when the samples do

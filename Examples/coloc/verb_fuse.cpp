@@ -19,6 +19,7 @@
 #include "Examples/coloc/verbs.hpp"
 #include "fusion/benchmark.hpp"
 #include "fusion/fuser.hpp"
+#include "fusion/imu.hpp"
 #include "fusion/osc_node.hpp"
 #include "fusion/simulation.hpp"
 #include "slam/core/error.hpp"
@@ -42,7 +43,7 @@ struct FuseArgs {
   std::vector<std::string> publish;
   double duration = 0.0;
   // Recorded files
-  std::string xr_file, global_file, out_file;
+  std::string xr_file, imu_file, global_file, out_file;
   double latency = 0.0;
   // Filter
   double process_noise = 1e-3, measurement_noise = 0.9;
@@ -165,6 +166,36 @@ void run_node(const FuseArgs& a) {
   sigaction(SIGINT, &previous_int, nullptr);
   sigaction(SIGTERM, &previous_term, nullptr);
   pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+}
+
+// IMU mode on recorded files: an IMU log (EuRoC CSV) instead of headset poses; global poses
+// must be world_from_body (the IMU's frame). One fused pose per IMU sample once anchored.
+void run_imu_files(const FuseArgs& a) {
+  const std::vector<fusion::ImuSample> imu = fusion::read_imu_csv(a.imu_file);
+  const Trajectory global = read_tum_trajectory(a.global_file);
+  fusion::ImuFuserOptions options;
+  options.fuser = fuser_options(a);
+  fusion::ImuFuser fuser(options);
+  Trajectory fused;
+  std::size_t g = 0;
+  for (const fusion::ImuSample& s : imu) {
+    while (g < global.size() && global[g].timestamp + a.latency <= s.time) {
+      fuser.push_global_pose(global[g].timestamp, global[g].world_from_cam);
+      ++g;
+    }
+    const fusion::FusedPose out = fuser.push_imu(s);
+    if (fuser.anchored() && out.state != fusion::FusionState::kWaiting) {
+      fused.push_back({s.time, out.world_from_head});
+    }
+  }
+  if (!a.out_file.empty()) write_tum_trajectory(a.out_file, fused);
+  if (!a.json) {
+    std::printf("imu samples %llu (gaps %llu), integrator corrections %llu\n",
+                static_cast<unsigned long long>(fuser.stats().imu_samples),
+                static_cast<unsigned long long>(fuser.stats().gaps),
+                static_cast<unsigned long long>(fuser.stats().corrections));
+  }
+  print_stats(fuser.fuser().stats(), nullptr, 0, 0, a.json);
 }
 
 // Replays recorded headset and global trajectories (TUM files, same clock) through the fuser;
@@ -297,7 +328,7 @@ void add_fuse_verb(CLI::App& app, CLI::App& bench) {
   CLI::App& cmd = *app.add_subcommand(
       "fuse",
       "Fuse drifting headset poses with global poses: as an OSC node (--listen) or on recorded "
-      "TUM files (--xr/--global)");
+      "files (--xr/--global TUM, or IMU mode --imu/--global)");
   auto* listen = cmd.add_option("--listen", args->listen,
                                 "UDP port for OSC input (/coloc/pose, /coloc/xr_pose, "
                                 "/coloc/get_pose); 0 = any free port")
@@ -310,6 +341,9 @@ void add_fuse_verb(CLI::App& app, CLI::App& bench) {
       ->capture_default_str();
   auto* xr = cmd.add_option("--xr", args->xr_file, "Recorded headset poses xr_from_head (TUM)")
                  ->check(CLI::ExistingFile);
+  auto* imu = cmd.add_option("--imu", args->imu_file,
+                             "IMU mode: recorded IMU log, EuRoC CSV (t[ns],w xyz,a xyz)")
+                  ->check(CLI::ExistingFile);
   auto* global = cmd.add_option("--global", args->global_file,
                                 "Recorded global poses world_from_head, stamped at exposure (TUM)")
                      ->check(CLI::ExistingFile);
@@ -318,17 +352,21 @@ void add_fuse_verb(CLI::App& app, CLI::App& bench) {
                  "Replay: deliver global poses this many seconds after their stamp")
       ->capture_default_str();
   xr->needs(global);
-  global->needs(xr);
+  imu->needs(global);
+  xr->excludes(imu);
   listen->excludes(xr);
+  listen->excludes(imu);
   add_filter_options(cmd, *args);
   cmd.add_flag("--json", args->json, "Statistics as JSON on stdout");
   cmd.callback([args, &cmd] {
     if (!args->xr_file.empty()) {
       run_files(*args);
+    } else if (!args->imu_file.empty()) {
+      run_imu_files(*args);
     } else if (args->listen >= 0) {
       run_node(*args);
     } else {
-      throw CLI::RequiredError("--listen PORT or --xr/--global");
+      throw CLI::RequiredError("--listen PORT, --xr/--global or --imu/--global");
     }
     (void)cmd;
   });

@@ -8,6 +8,7 @@
 
 #include "fusion/imu.hpp"
 #include "fusion/pose_buffer.hpp"
+#include "slam/core/error.hpp"
 #include "tests/testing/data.hpp"
 
 namespace coloc::fusion {
@@ -26,6 +27,30 @@ std::vector<ImuSample> constant_rotation(const SO3& start, const Eigen::Vector3d
     out.push_back({t, omega, r.inverse() * (-kGravity)});
   }
   return out;
+}
+
+TEST(Imu, CsvReaderNamesTheBadLine) {
+  const auto dir = coloc::testing::temp_dir("fusion_imu_csv");
+  {
+    std::ofstream out(dir / "imu.csv");
+    out << "#timestamp [ns],w_x,w_y,w_z,a_x,a_y,a_z\n"
+        << "1000000000,0.1,0.2,0.3,0,0,9.81\n"
+        << "1005000000,0.1,0.2,0.3,0,0,9.81\n";
+  }
+  const auto samples = read_imu_csv(dir / "imu.csv");
+  ASSERT_EQ(samples.size(), 2u);
+  EXPECT_DOUBLE_EQ(samples[1].time, 1.005);
+  EXPECT_DOUBLE_EQ(samples[0].gyro.z(), 0.3);
+  {
+    std::ofstream out(dir / "bad.csv");
+    out << "1000000000,0.1,0.2,0.3,0,0,9.81\n1005000000,0.1,oops\n";
+  }
+  try {
+    read_imu_csv(dir / "bad.csv");
+    FAIL() << "expected coloc::Error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().line, 2);
+  }
 }
 
 TEST(Imu, ConstantRateRotationIntegratesExactly) {
@@ -77,18 +102,8 @@ struct Euroc {
 
 Euroc load_euroc(const std::filesystem::path& dir) {
   Euroc e;
-  std::ifstream imu(dir / "mav0/imu0/data.csv");
+  e.imu = read_imu_csv(dir / "mav0/imu0/data.csv");
   std::string line;
-  while (std::getline(imu, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::replace(line.begin(), line.end(), ',', ' ');
-    std::istringstream f(line);
-    double ns = 0;
-    ImuSample s;
-    f >> ns >> s.gyro.x() >> s.gyro.y() >> s.gyro.z() >> s.accel.x() >> s.accel.y() >> s.accel.z();
-    s.time = ns * 1e-9;
-    e.imu.push_back(s);
-  }
   // body_from_cam0 = T_BS of mav0/cam0/sensor.yaml (the IMU is the body frame).
   Eigen::Matrix4d t_bs;
   t_bs << 0.0148655429818, -0.999880929698, 0.00414029679422, -0.0216401454975,  //
@@ -266,7 +281,7 @@ TEST(ImuEuroc, GlobalPosesCorrectTheIntegratedDrift) {
   EXPECT_LT(rmse, 0.04);
   EXPECT_LT(rms(fused_rotation), 1.0 * kDeg);
   EXPECT_GT(rms(unaided_position), 20.0 * rmse);  // dead reckoning runs away
-  EXPECT_LT(rms(jumps), 0.003);  // smooth at 200 Hz
+  EXPECT_LT(rms(jumps), 0.003);                   // smooth at 200 Hz
   EXPECT_EQ(fuser.stats().out_of_order, 0u);
   EXPECT_GT(fuser.stats().corrections, 1000u);
 }
