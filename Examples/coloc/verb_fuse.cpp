@@ -41,6 +41,7 @@ struct FuseArgs {
   int listen = -1;
   std::string bind = "127.0.0.1";
   std::vector<std::string> publish;
+  bool broadcast = false;
   double duration = 0.0;
   // Recorded files
   std::string xr_file, imu_file, global_file, out_file;
@@ -128,6 +129,7 @@ void run_node(const FuseArgs& a) {
   options.fuser = fuser_options(a);
   options.endpoint.bind_address = a.bind;
   options.endpoint.port = a.listen;
+  options.endpoint.broadcast = a.broadcast;
   options.publish = a.publish;
   sigset_t signals;
   sigemptyset(&signals);
@@ -337,6 +339,8 @@ void add_fuse_verb(CLI::App& app, CLI::App& bench) {
       ->capture_default_str();
   cmd.add_option("--publish", args->publish,
                  "Send /coloc/fused_pose to osc.udp://HOST:PORT (repeatable)");
+  cmd.add_flag("--broadcast", args->broadcast,
+               "Allow --publish to a subnet broadcast address (SO_BROADCAST)");
   cmd.add_option("--duration", args->duration, "Stop after this many seconds (0: at SIGINT)")
       ->capture_default_str();
   auto* xr = cmd.add_option("--xr", args->xr_file, "Recorded headset poses xr_from_head (TUM)")

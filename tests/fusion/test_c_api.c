@@ -50,17 +50,10 @@ static void send_pose(lo_address to, const char* path, double t, int seq, float 
     CHECK(cond);                               \
   } while (0)
 
-int main(void) {
+static void check_options_and_arguments(void) {
   coloc_fusion_options options;
-  coloc_fusion* f;
-  coloc_pose pose, fused;
-  coloc_fusion_stats stats;
+  coloc_pose pose;
   char error[256];
-  char port_text[16];
-  int state = -1;
-  lo_server server;
-  lo_address to;
-  char* url;
 
   CHECK(coloc_fusion_abi_version() == COLOC_FUSION_ABI_VERSION);
   coloc_fusion_default_options(&options);
@@ -80,22 +73,18 @@ int main(void) {
   CHECK(coloc_fusion_create(&options, error, sizeof(error)) == NULL);
   CHECK(strstr(error, "url") != NULL);
   coloc_fusion_destroy(NULL);
+  memset(&pose, 0, sizeof(pose));
   CHECK(coloc_fusion_push_xr_pose(NULL, &pose, NULL, NULL) == COLOC_ERROR_INVALID_ARGUMENT);
+}
 
-  /* A liblo server in C receives the fused poses. */
-  server = lo_server_new_with_proto(NULL, LO_UDP, NULL);
-  CHECK(server != NULL);
-  if (server == NULL) return 1;
-  lo_server_add_method(server, "/coloc/fused_pose", NULL, on_fused, NULL);
-  url = lo_server_get_url(server);
-  snprintf(error, sizeof(error), "osc.udp://127.0.0.1:%d", lo_server_get_port(server));
-  free(url);
-
-  coloc_fusion_default_options(&options);
-  options.publish_url = error;
-  f = coloc_fusion_create(&options, NULL, 0);
-  CHECK(f != NULL);
-  if (f == NULL) return 1;
+/* Headset and global poses over UDP from liblo to the handle's port; fused poses back to a
+ * liblo server; counters for the garbage in between. */
+static void check_osc(coloc_fusion* f, lo_server server) {
+  coloc_pose pose, fused;
+  coloc_fusion_stats stats;
+  char port_text[16];
+  int state = -1, i;
+  lo_address to;
 
   memset(&pose, 0, sizeof(pose));
   pose.orientation[3] = 1.0;
@@ -104,7 +93,6 @@ int main(void) {
   CHECK(strlen(coloc_fusion_last_error(f)) > 0);
   CHECK(coloc_fusion_push_global_pose(f, &pose, 7) == COLOC_ERROR_INVALID_ARGUMENT);
 
-  /* OSC in: headset and global poses over UDP from liblo, to the handle's port. */
   CHECK(coloc_fusion_osc_port(f) > 0);
   CHECK(coloc_fusion_start_osc(f) == COLOC_OK);
   snprintf(port_text, sizeof(port_text), "%d", coloc_fusion_osc_port(f));
@@ -117,19 +105,14 @@ int main(void) {
   WAIT_FOR(f, server, stats.osc_wrong_types >= 1);
   send_pose(to, "/coloc/xr_pose", 1.1, 2, 0.5f);
   WAIT_FOR(f, server, stats.xr_poses >= 2);
-
-  /* OSC out: the fused pose reached the liblo server. */
-  {
-    int i;
-    for (i = 0; i < 300 && received_state != COLOC_FUSION_TRACKING; ++i) {
-      lo_server_recv_noblock(server, 10);
-    }
+  for (i = 0; i < 300 && received_state != COLOC_FUSION_TRACKING; ++i) {
+    lo_server_recv_noblock(server, 10);
   }
   CHECK(received >= 1);
   CHECK(received_state == COLOC_FUSION_TRACKING);
   CHECK(fabs(received_x - 2.5) < 1e-4);
 
-  /* Direct API on the same handle. */
+  /* The direct API sees the same state. */
   CHECK(coloc_fusion_get_fused_pose(f, &fused, &state) == COLOC_OK);
   CHECK(state == COLOC_FUSION_TRACKING);
   CHECK(fabs(fused.position[0] - 2.5) < 1e-4);
@@ -137,9 +120,30 @@ int main(void) {
   CHECK(stats.osc_published >= 1);
   CHECK(stats.osc_wrong_types == 1);
   CHECK(coloc_fusion_stop_osc(f) == COLOC_OK);
-
-  coloc_fusion_destroy(f);
   lo_address_free(to);
+}
+
+int main(void) {
+  coloc_fusion_options options;
+  coloc_fusion* f;
+  char url[64];
+  lo_server server;
+
+  check_options_and_arguments();
+
+  /* A liblo server in C receives the fused poses. */
+  server = lo_server_new_with_proto(NULL, LO_UDP, NULL);
+  CHECK(server != NULL);
+  if (server == NULL) return 1;
+  lo_server_add_method(server, "/coloc/fused_pose", NULL, on_fused, NULL);
+  snprintf(url, sizeof(url), "osc.udp://127.0.0.1:%d", lo_server_get_port(server));
+
+  coloc_fusion_default_options(&options);
+  options.publish_url = url;
+  f = coloc_fusion_create(&options, NULL, 0);
+  CHECK(f != NULL);
+  if (f != NULL) check_osc(f, server);
+  coloc_fusion_destroy(f);
   lo_server_free(server);
   if (failures == 0) printf("fusion C ABI: all checks passed\n");
   return failures == 0 ? 0 : 1;
