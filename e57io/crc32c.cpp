@@ -49,6 +49,32 @@ __attribute__((target("sse4.2"))) std::uint32_t crc32c_hw(const unsigned char* p
   return ~c32;
 }
 
+__attribute__((target("sse4.2"))) void crc32c_hw_x3(const unsigned char* a, const unsigned char* b,
+                                                    const unsigned char* c, std::size_t n,
+                                                    std::uint32_t out[3]) {
+  std::uint64_t ca = 0xFFFFFFFFu, cb = 0xFFFFFFFFu, cc = 0xFFFFFFFFu;
+  std::size_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    std::uint64_t va, vb, vc;
+    std::memcpy(&va, a + i, 8);
+    std::memcpy(&vb, b + i, 8);
+    std::memcpy(&vc, c + i, 8);
+    ca = _mm_crc32_u64(ca, va);
+    cb = _mm_crc32_u64(cb, vb);
+    cc = _mm_crc32_u64(cc, vc);
+  }
+  auto a32 = static_cast<std::uint32_t>(ca), b32 = static_cast<std::uint32_t>(cb),
+       c32 = static_cast<std::uint32_t>(cc);
+  for (; i < n; ++i) {
+    a32 = _mm_crc32_u8(a32, a[i]);
+    b32 = _mm_crc32_u8(b32, b[i]);
+    c32 = _mm_crc32_u8(c32, c[i]);
+  }
+  out[0] = ~a32;
+  out[1] = ~b32;
+  out[2] = ~c32;
+}
+
 bool cpu_has_sse42() {
   return __builtin_cpu_supports("sse4.2");
 }
@@ -82,6 +108,20 @@ std::uint32_t crc32c(const void* data, std::size_t size, std::uint32_t crc) {
   if (cpu_has_sse42()) return crc32c_hw(static_cast<const unsigned char*>(data), size, crc);
 #endif
   return crc32c_portable(data, size, crc);
+}
+
+void crc32c_x3(const void* a, const void* b, const void* c, std::size_t size,
+               std::uint32_t out[3]) {
+#ifdef COLOC_E57_HAVE_SSE42
+  if (cpu_has_sse42()) {
+    crc32c_hw_x3(static_cast<const unsigned char*>(a), static_cast<const unsigned char*>(b),
+                 static_cast<const unsigned char*>(c), size, out);
+    return;
+  }
+#endif
+  out[0] = crc32c_portable(a, size);
+  out[1] = crc32c_portable(b, size);
+  out[2] = crc32c_portable(c, size);
 }
 
 }  // namespace coloc::e57

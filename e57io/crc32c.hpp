@@ -12,6 +12,10 @@ namespace coloc::e57 {
 // 0xE3069283.
 std::uint32_t crc32c(const void* data, std::size_t size, std::uint32_t crc = 0);
 
+// CRCs (from 0) of three equal-length buffers at once: the hardware instruction has a 3-cycle
+// latency and 1-cycle throughput, so three independent chains run ~3x faster than one.
+void crc32c_x3(const void* a, const void* b, const void* c, std::size_t size, std::uint32_t out[3]);
+
 // The portable table-driven version (exposed so tests can compare both paths).
 std::uint32_t crc32c_portable(const void* data, std::size_t size, std::uint32_t crc = 0);
 

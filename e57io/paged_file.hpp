@@ -83,7 +83,7 @@ class PagedReader {
   std::vector<std::uint8_t> window_;  // whole physical pages [window_first_, +window_pages_)
   std::uint64_t window_first_ = 0;
   std::uint64_t window_pages_ = 0;
-  std::vector<std::uint8_t> window_checked_;  // per window page: CRC checked (or not wanted)
+  std::vector<std::uint8_t> window_checked_;  // per window page: 1 = CRC fine or not wanted
 };
 
 // Writes a paged file sequentially in logical bytes; computes page CRCs as pages fill. Bytes

@@ -38,6 +38,11 @@ TEST(Crc32c, HardwareAndPortableAgreeAndContinue) {
   for (std::size_t n : {0u, 1u, 7u, 8u, 9u, 1020u, 4999u}) {
     EXPECT_EQ(crc32c(data.data(), n), crc32c_portable(data.data(), n)) << n;
   }
+  std::uint32_t three[3];
+  crc32c_x3(data.data(), data.data() + 1020, data.data() + 2040, 1020, three);
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(three[k], crc32c_portable(data.data() + 1020 * k, 1020)) << k;
+  }
   const std::uint32_t whole = crc32c(data.data(), data.size());
   EXPECT_EQ(crc32c(data.data() + 1000, 4000, crc32c(data.data(), 1000)), whole);
 }
