@@ -8,6 +8,7 @@
 namespace coloc::cli {
 
 void add_eval_verb(CLI::App& app);
+void add_e57_verb(CLI::App& app, CLI::App& bench);
 void add_demo_verb(CLI::App& app);
 void add_handeye_verb(CLI::App& app, CLI::App& bench);
 void add_fuse_verb(CLI::App& app, CLI::App& bench);
