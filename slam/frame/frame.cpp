@@ -1,0 +1,141 @@
+#include "slam/frame/frame.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/core.hpp>
+
+#include "slam/core/error.hpp"
+
+namespace coloc::slam::frame {
+
+FrameGeometry FrameGeometry::make(const Camera& camera, double bf, double close_depth,
+                                  const std::vector<float>& scale_factors) {
+  FrameGeometry g;
+  const Eigen::Matrix3d k = intrinsic_matrix(camera);
+  g.fx = k(0, 0);
+  g.fy = k(1, 1);
+  g.cx = k(0, 2);
+  g.cy = k(1, 2);
+  g.bf = bf;
+  g.close_depth = close_depth;
+  const double w = image_width(camera), h = image_height(camera);
+  // Bounds of the undistorted image: the undistorted corners (ORB-SLAM's ComputeImageBounds).
+  g.min_x = 0.0;
+  g.max_x = w;
+  g.min_y = 0.0;
+  g.max_y = h;
+  if (w > 0 && h > 0) {
+    const Eigen::Vector2d corners[4] = {{0, 0}, {w - 1, 0}, {0, h - 1}, {w - 1, h - 1}};
+    double x0 = 1e9, x1 = -1e9, y0 = 1e9, y1 = -1e9;
+    for (const auto& c : corners) {
+      const Eigen::Vector2d u = undistort_pixel(camera, c);
+      if (!std::isfinite(u.x()) || !std::isfinite(u.y())) continue;
+      x0 = std::min(x0, u.x());
+      x1 = std::max(x1, u.x());
+      y0 = std::min(y0, u.y());
+      y1 = std::max(y1, u.y());
+    }
+    if (x1 > x0 && y1 > y0) {
+      g.min_x = std::min(0.0, x0);
+      g.max_x = std::max(w, x1);
+      g.min_y = std::min(0.0, y0);
+      g.max_y = std::max(h, y1);
+    }
+  }
+  g.scale_factors = scale_factors;
+  for (float s : scale_factors)
+    g.level_sigma2.push_back(s * s);
+  if (scale_factors.size() > 1) g.log_scale_factor = std::log(scale_factors[1]);
+  return g;
+}
+
+void FrameGeometry::check() const {
+  if (!(fx > 0.0) || !(fy > 0.0)) throw Error("FrameGeometry: fx, fy must be positive");
+  if (!(bf > 0.0)) throw Error("FrameGeometry: bf must be positive (RGB-D needs Camera.bf)");
+  if (!(close_depth > 0.0)) throw Error("FrameGeometry: close_depth must be positive");
+  if (!(max_x > min_x) || !(max_y > min_y)) throw Error("FrameGeometry: empty image bounds");
+  if (grid_cols < 1 || grid_rows < 1) throw Error("FrameGeometry: grid_cols/grid_rows < 1");
+  if (scale_factors.empty()) throw Error("FrameGeometry: scale_factors empty");
+}
+
+Frame::Frame(FrameId frame_id, double stamp, features::OrbFeatures feats,
+             const cv::Mat& depth_image, std::shared_ptr<const FrameGeometry> geometry)
+    : id(frame_id), timestamp(stamp), features(std::move(feats)), geometry_(std::move(geometry)) {
+  const std::size_t n = features.size();
+  depth.assign(n, -1.0f);
+  u_right.assign(n, -1.0f);
+  points.assign(n, MapPointId::invalid());
+  outlier.assign(n, 0);
+  const FrameGeometry& g = *geometry_;
+  if (!depth_image.empty()) {
+    if (depth_image.type() != CV_32FC1) throw Error("Frame: depth image must be CV_32FC1 metres");
+    for (std::size_t i = 0; i < n; ++i) {
+      // Depth is registered to the distorted colour image: look it up at the detected pixel.
+      const auto& kp = features.keypoints[i];
+      const int u = static_cast<int>(std::lround(kp.x));
+      const int v = static_cast<int>(std::lround(kp.y));
+      if (u < 0 || v < 0 || u >= depth_image.cols || v >= depth_image.rows) continue;
+      const float d = depth_image.at<float>(v, u);
+      if (!(d >= g.min_depth && d <= g.max_depth)) continue;
+      depth[i] = d;
+      u_right[i] = static_cast<float>(kp.ux - g.bf / d);
+    }
+  }
+  assign_grid();
+}
+
+void Frame::assign_grid() {
+  const FrameGeometry& g = *geometry_;
+  grid_.assign(static_cast<std::size_t>(g.grid_cols * g.grid_rows), {});
+  const double sx = g.grid_cols / (g.max_x - g.min_x), sy = g.grid_rows / (g.max_y - g.min_y);
+  for (std::size_t i = 0; i < features.size(); ++i) {
+    const auto& kp = features.keypoints[i];
+    const int c = static_cast<int>(std::floor((kp.ux - g.min_x) * sx));
+    const int r = static_cast<int>(std::floor((kp.uy - g.min_y) * sy));
+    if (c < 0 || r < 0 || c >= g.grid_cols || r >= g.grid_rows) continue;
+    grid_[static_cast<std::size_t>(r * g.grid_cols + c)].push_back(static_cast<std::uint32_t>(i));
+  }
+}
+
+Eigen::Vector3d Frame::unproject_world(std::size_t i) const {
+  const FrameGeometry& g = *geometry_;
+  const double z = depth[i];
+  const Eigen::Vector3d p((features.keypoints[i].ux - g.cx) * z / g.fx,
+                          (features.keypoints[i].uy - g.cy) * z / g.fy, z);
+  return cam_from_world.inverse() * p;
+}
+
+std::vector<std::size_t> Frame::features_in_area(double x, double y, double radius, int min_level,
+                                                 int max_level) const {
+  std::vector<std::size_t> out;
+  const FrameGeometry& g = *geometry_;
+  const double sx = g.grid_cols / (g.max_x - g.min_x), sy = g.grid_rows / (g.max_y - g.min_y);
+  const int c0 = std::max(0, static_cast<int>(std::floor((x - radius - g.min_x) * sx)));
+  const int c1 =
+      std::min(g.grid_cols - 1, static_cast<int>(std::floor((x + radius - g.min_x) * sx)));
+  const int r0 = std::max(0, static_cast<int>(std::floor((y - radius - g.min_y) * sy)));
+  const int r1 =
+      std::min(g.grid_rows - 1, static_cast<int>(std::floor((y + radius - g.min_y) * sy)));
+  if (c0 > c1 || r0 > r1) return out;
+  const double r2 = radius * radius;
+  for (int r = r0; r <= r1; ++r) {
+    for (int c = c0; c <= c1; ++c) {
+      for (std::uint32_t i : grid_[static_cast<std::size_t>(r * g.grid_cols + c)]) {
+        const auto& kp = features.keypoints[i];
+        if (kp.level < min_level || (max_level >= 0 && kp.level > max_level)) continue;
+        const double dx = kp.ux - x, dy = kp.uy - y;
+        if (dx * dx + dy * dy <= r2) out.push_back(i);
+      }
+    }
+  }
+  return out;
+}
+
+std::size_t Frame::tracked_count() const {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < points.size(); ++i)
+    n += (points[i].valid() && !outlier[i]) ? 1 : 0;
+  return n;
+}
+
+}  // namespace coloc::slam::frame

@@ -1,0 +1,98 @@
+#pragma once
+// One RGB-D frame as tracking sees it: ORB features, the registered depth at each keypoint and
+// the virtual right coordinate u_r = u - bf / d that turns an RGB-D observation into a
+// stereo-like 3-dof measurement (ORB-SLAM2's RGB-D mode). Keypoints are bucketed in a grid over
+// the undistorted image bounds so projection searches only look at nearby features.
+//
+// Frames: keypoint pixels are undistorted (ideal pinhole with fx fy cx cy); cam_from_world maps
+// world points (metres) into the camera frame (x right, y down, z forward).
+// A Frame is a plain value: owned by tracking, copied into a Keyframe when one is made. The
+// geometry is shared, immutable, by every frame of a run.
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "slam/bow/bow_vector.hpp"
+#include "slam/core/camera.hpp"
+#include "slam/core/ids.hpp"
+#include "slam/core/se3.hpp"
+#include "slam/features/orb_extractor.hpp"
+
+namespace coloc::slam::frame {
+
+// Intrinsics and the depth model shared by every frame of a run.
+struct FrameGeometry {
+  double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;
+  double bf = 0.0;           // baseline * fx (pixels * metres) of the virtual stereo rig
+  double close_depth = 0.0;  // metres: nearer keypoints are "close" (ThDepth * baseline)
+  double min_depth = 0.1;    // metres: depth readings outside [min, max] count as invalid
+  double max_depth = 10.0;
+  // Undistorted image bounds (pixels) that the grid covers.
+  double min_x = 0.0, max_x = 0.0, min_y = 0.0, max_y = 0.0;
+  int grid_cols = 64;
+  int grid_rows = 48;
+  std::vector<float> scale_factors;  // per pyramid level: scale_factor^l
+  std::vector<float> level_sigma2;   // per level: scale^2 (pixel variance of a measurement)
+  double log_scale_factor = 0.0;
+
+  // From a camera (its distortion sets the undistorted bounds) and the extractor's pyramid.
+  static FrameGeometry make(const Camera& camera, double bf, double close_depth,
+                            const std::vector<float>& scale_factors);
+  // Throws coloc::Error naming the first invalid field.
+  void check() const;
+  Eigen::Vector2d project(const Eigen::Vector3d& p_cam) const {
+    return {fx * p_cam.x() / p_cam.z() + cx, fy * p_cam.y() / p_cam.z() + cy};
+  }
+  bool in_bounds(const Eigen::Vector2d& uv) const {
+    return uv.x() >= min_x && uv.x() < max_x && uv.y() >= min_y && uv.y() < max_y;
+  }
+  int levels() const { return static_cast<int>(scale_factors.size()); }
+};
+
+class Frame {
+ public:
+  Frame() = default;
+  // `depth`: CV_32FC1 metres registered to the colour image (0 = invalid); may be empty (then
+  // every keypoint is monocular).
+  Frame(FrameId id, double timestamp, features::OrbFeatures features, const cv::Mat& depth,
+        std::shared_ptr<const FrameGeometry> geometry);
+
+  FrameId id;
+  double timestamp = 0.0;  // seconds
+  features::OrbFeatures features;
+  std::vector<float> depth;           // metres per keypoint, <= 0 when invalid
+  std::vector<float> u_right;         // virtual right u per keypoint, < 0 when no depth
+  std::vector<MapPointId> points;     // map point matched to each keypoint (invalid = none)
+  std::vector<std::uint8_t> outlier;  // per keypoint, set by pose optimization
+  bow::BowVector bow;
+  bow::FeatureVector feature_vector;
+  SE3 cam_from_world;
+  bool has_pose = false;
+
+  std::size_t size() const { return features.size(); }
+  const FrameGeometry& geometry() const { return *geometry_; }
+  Eigen::Vector2d pixel(std::size_t i) const {
+    return {features.keypoints[i].ux, features.keypoints[i].uy};
+  }
+  int level(std::size_t i) const { return features.keypoints[i].level; }
+  bool has_depth(std::size_t i) const { return depth[i] > 0.0f; }
+  bool is_close(std::size_t i) const {
+    return depth[i] > 0.0f && depth[i] < geometry_->close_depth;
+  }
+  // World point of keypoint i from its depth (requires has_pose and has_depth(i)).
+  Eigen::Vector3d unproject_world(std::size_t i) const;
+  Eigen::Vector3d camera_centre() const { return cam_from_world.inverse().translation(); }
+  // Keypoints within `radius` pixels of (x, y) with level in [min_level, max_level] (a negative
+  // max_level means no upper limit).
+  std::vector<std::size_t> features_in_area(double x, double y, double radius, int min_level = 0,
+                                            int max_level = -1) const;
+  std::size_t tracked_count() const;  // keypoints with a valid point that are not outliers
+
+ private:
+  void assign_grid();
+  std::shared_ptr<const FrameGeometry> geometry_;  // shared by all frames of a run
+  std::vector<std::vector<std::uint32_t>> grid_;   // row-major cells of keypoint indices
+};
+
+}  // namespace coloc::slam::frame

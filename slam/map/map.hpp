@@ -1,0 +1,112 @@
+#pragma once
+// The SLAM map: keyframes and map points as plain values owned by the Map and keyed by the ids
+// it issues (COLMAP's id-keyed scene). Relations are ids, never pointers: a point lists the
+// keyframes (and keypoint indices) observing it, a keyframe lists the point of each keypoint.
+// The Map keeps those two sides consistent, and maintains the covisibility graph (weights =
+// shared points), the spanning tree (parent = strongest covisible keyframe when it joined) and
+// each point's best descriptor, mean viewing direction and scale-invariance distances.
+//
+// Thread-safety: none inside. The System owns one Map behind one mutex (SharedMap in
+// slam/system); tracking and local mapping hold that lock whenever they read or write the Map.
+// Units: metres; poses cam_from_world.
+#include <Eigen/Core>
+#include <map>
+#include <optional>
+#include <set>
+#include <unordered_map>
+#include <vector>
+
+#include "markers/detector.hpp"
+#include "slam/core/ids.hpp"
+#include "slam/core/se3.hpp"
+#include "slam/frame/frame.hpp"
+
+namespace coloc::slam::map {
+
+struct Keyframe {
+  KeyframeId id;
+  frame::Frame frame;  // features, depth, matched points (frame.points) and pose
+  // Covisibility: keyframe -> number of shared points (only weights >= 15, or the best one).
+  std::map<KeyframeId, int> covisibility;
+  std::vector<KeyframeId> covisible_ordered;  // by decreasing weight
+  KeyframeId parent;                          // spanning tree (invalid for the first keyframe)
+  std::set<KeyframeId> children;
+  std::vector<markers::MarkerObservation> markers;  // fiducials seen in this keyframe
+
+  const SE3& cam_from_world() const { return frame.cam_from_world; }
+  Eigen::Vector3d camera_centre() const { return frame.camera_centre(); }
+  const std::vector<MapPointId>& points() const { return frame.points; }
+};
+
+struct MapPoint {
+  MapPointId id;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  // world, metres
+  features::Descriptor descriptor{};                   // the most central observation
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();   // mean unit viewing direction
+  double min_distance = 0.0, max_distance = 0.0;       // scale-invariance range (metres)
+  KeyframeId reference;                                // keyframe that created it
+  KeyframeId first_keyframe;
+  std::map<KeyframeId, std::uint32_t> observations;  // keyframe -> keypoint index
+  int visible = 1;                                   // frames whose frustum contained it
+  int found = 1;                                     // frames that matched it
+  double found_ratio() const { return static_cast<double>(found) / std::max(visible, 1); }
+  // Predicted pyramid level at a distance (metres).
+  int predict_level(double distance, const frame::FrameGeometry& g) const;
+};
+
+// What remains of an erased keyframe: enough to chain a frame's relative pose to the map.
+struct ErasedKeyframe {
+  KeyframeId parent;
+  SE3 cam_from_parent;
+};
+
+class Map {
+ public:
+  KeyframeId next_keyframe_id() { return keyframe_ids_.next(); }
+  MapPointId next_point_id() { return point_ids_.next(); }
+
+  // Inserts a keyframe (id from next_keyframe_id()); its frame.points must all exist (or be
+  // invalid). Adds its observations to those points.
+  Keyframe& add_keyframe(Keyframe keyframe);
+  // A new point observed by `keyframe` at keypoint `index`.
+  MapPoint& add_point(const Eigen::Vector3d& position, KeyframeId keyframe, std::uint32_t index);
+  void add_observation(MapPointId point, KeyframeId keyframe, std::uint32_t index);
+  void erase_observation(MapPointId point, KeyframeId keyframe);
+  void erase_point(MapPointId point);
+  // Keeps the point with more observations; the other's observations move to it.
+  void replace_point(MapPointId from, MapPointId to);
+  // Erases a keyframe, reconnecting its children in the spanning tree.
+  void erase_keyframe(KeyframeId keyframe);
+
+  // Recomputes the keyframe's covisibility edges (both directions) and, the first time, its
+  // spanning-tree parent.
+  void update_connections(KeyframeId keyframe);
+  // Best descriptor (least median distance to the others), normal and distance range.
+  void update_point(MapPointId point);
+  // ORB-SLAM2's observation count: an observation with depth (stereo-like) counts twice.
+  int weighted_observations(MapPointId point) const;
+  // Up to n best covisible keyframes (all when n == 0).
+  std::vector<KeyframeId> covisible(KeyframeId keyframe, std::size_t n = 0) const;
+
+  Keyframe* keyframe(KeyframeId id);
+  const Keyframe* keyframe(KeyframeId id) const;
+  MapPoint* point(MapPointId id);
+  const MapPoint* point(MapPointId id) const;
+  const std::unordered_map<KeyframeId, Keyframe>& keyframes() const { return keyframes_; }
+  const std::unordered_map<MapPointId, MapPoint>& points() const { return points_; }
+  // cam_from_world of a keyframe, following erased keyframes through their parents.
+  std::optional<SE3> keyframe_pose(KeyframeId id) const;
+  std::size_t keyframe_count() const { return keyframes_.size(); }
+  std::size_t point_count() const { return points_.size(); }
+  KeyframeId first_keyframe() const { return first_keyframe_; }
+
+ private:
+  std::unordered_map<KeyframeId, Keyframe> keyframes_;
+  std::unordered_map<MapPointId, MapPoint> points_;
+  std::unordered_map<KeyframeId, ErasedKeyframe> erased_;
+  IdIssuer<KeyframeId> keyframe_ids_;
+  IdIssuer<MapPointId> point_ids_;
+  KeyframeId first_keyframe_;
+};
+
+}  // namespace coloc::slam::map

@@ -1,0 +1,19 @@
+#pragma once
+// The map as the two SLAM threads share it: the Map, the keyframe BoW database, and the ONE
+// mutex that guards both. Rule: tracking (caller's thread) and local mapping (its own thread)
+// hold `mutex` for every read or write of `map` or `database`; long computations (feature
+// extraction, bundle adjustment, marker detection) run on copies without the lock.
+#include <mutex>
+
+#include "slam/bow/database.hpp"
+#include "slam/map/map.hpp"
+
+namespace coloc::slam::map {
+
+struct SharedMap {
+  std::mutex mutex;
+  Map map;
+  bow::BowDatabase database;  // image key = keyframe id value
+};
+
+}  // namespace coloc::slam::map

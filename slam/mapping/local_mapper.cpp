@@ -1,0 +1,207 @@
+#include "slam/mapping/local_mapper.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <set>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "slam/core/error.hpp"
+#include "slam/core/timing.hpp"
+#include "slam/mapping/fuse.hpp"
+
+namespace coloc::slam::mapping {
+
+void LocalMappingOptions::check() const {
+  if (queue_capacity < 1) throw Error("LocalMappingOptions.queue_capacity must be >= 1");
+  if (!(fusion_radius > 0.0)) throw Error("LocalMappingOptions.fusion_radius must be > 0");
+  if (!(redundancy > 0.0 && redundancy <= 1.0))
+    throw Error("LocalMappingOptions.redundancy must be in (0, 1]");
+  ba.check();
+}
+
+LocalMapper::LocalMapper(map::SharedMap& map, const bow::Vocabulary& vocabulary,
+                         const markers::MarkerDetector* detector, LocalMappingOptions options)
+    : shared_(map),
+      vocabulary_(vocabulary),
+      detector_(detector),
+      options_(std::move(options)),
+      queue_(options_.queue_capacity) {
+  options_.check();
+}
+
+LocalMapper::~LocalMapper() {
+  stop();
+}
+
+void LocalMapper::start() {
+  if (!thread_.joinable() && !stopping_) thread_ = std::thread([this] { run(); });
+}
+
+bool LocalMapper::push(KeyframeMessage message) {
+  {
+    std::lock_guard lock(state_mutex_);
+    ++pending_;
+  }
+  if (queue_.push(std::move(message))) return true;
+  std::lock_guard lock(state_mutex_);
+  --pending_;
+  idle_cv_.notify_all();
+  return false;
+}
+
+bool LocalMapper::idle() const {
+  std::lock_guard lock(state_mutex_);
+  return pending_ == 0;
+}
+
+void LocalMapper::wait_idle() {
+  std::unique_lock lock(state_mutex_);
+  idle_cv_.wait(lock, [&] { return pending_ == 0 || !thread_.joinable(); });
+}
+
+void LocalMapper::stop() {
+  stopping_ = true;
+  abort_ba_ = true;
+  queue_.close();
+  if (thread_.joinable()) thread_.join();
+  std::lock_guard lock(state_mutex_);
+  idle_cv_.notify_all();
+}
+
+MappingStats LocalMapper::stats() const {
+  std::lock_guard lock(state_mutex_);
+  return stats_;
+}
+
+void LocalMapper::run() {
+  while (auto message = queue_.pop()) {
+    try {
+      process(*message);
+    } catch (const std::exception& e) {
+      // A failed keyframe must not take the thread (and the program) down.
+      spdlog::error("local mapping: keyframe {}: {}", message->id.value(), e.what());
+    }
+    std::lock_guard lock(state_mutex_);
+    --pending_;
+    idle_cv_.notify_all();
+  }
+}
+
+void LocalMapper::process(const KeyframeMessage& message) {
+  insert_keyframe(message);
+  cull_recent_points(message.id);
+  fuse_neighbours(message.id);
+  // ORB-SLAM skips BA while keyframes wait: tracking needs them in the map first.
+  if (options_.local_ba && queue_.size() == 0 && !stopping_) {
+    abort_ba_ = false;
+    local_bundle_adjustment(message.id);
+  }
+  if (options_.keyframe_culling) cull_keyframes(message.id);
+  std::lock_guard lock(state_mutex_);
+  ++stats_.keyframes;
+}
+
+void LocalMapper::insert_keyframe(const KeyframeMessage& message) {
+  std::vector<features::Descriptor> descriptors;
+  bool need_bow = false;
+  {
+    std::lock_guard lock(shared_.mutex);
+    const map::Keyframe* kf = shared_.map.keyframe(message.id);
+    if (!kf) return;
+    need_bow = kf->frame.bow.empty();
+    if (need_bow) descriptors = kf->frame.features.descriptors;
+  }
+  bow::BowVector bow;
+  bow::FeatureVector fv;
+  if (need_bow) vocabulary_.transform(descriptors, bow, fv);
+  std::vector<markers::MarkerObservation> found;
+  if (detector_ && !message.grey.empty()) found = detector_->detect(message.grey);
+
+  std::lock_guard lock(shared_.mutex);
+  map::Map& m = shared_.map;
+  map::Keyframe* kf = m.keyframe(message.id);
+  if (!kf) return;
+  if (need_bow) {
+    kf->frame.bow = std::move(bow);
+    kf->frame.feature_vector = std::move(fv);
+  }
+  kf->markers = std::move(found);
+  if (!shared_.database.contains(message.id.value()))
+    shared_.database.add(message.id.value(), kf->frame.bow);
+  for (MapPointId p : kf->frame.points) {
+    const map::MapPoint* mp = p.valid() ? m.point(p) : nullptr;
+    if (!mp) continue;
+    if (mp->first_keyframe == message.id) recent_points_.push_back(p);
+    m.update_point(p);
+  }
+  m.update_connections(message.id);
+  std::lock_guard slock(state_mutex_);
+  stats_.markers += static_cast<int>(kf->markers.size());
+}
+
+void LocalMapper::cull_recent_points(KeyframeId current) {
+  std::lock_guard lock(shared_.mutex);
+  map::Map& m = shared_.map;
+  int culled = 0;
+  std::vector<MapPointId> keep;
+  for (MapPointId id : recent_points_) {
+    map::MapPoint* p = m.point(id);
+    if (!p) continue;
+    // ORB-SLAM2 counts a stereo-like observation twice; RGB-D points need more than 3.
+    const int weighted = m.weighted_observations(id);
+    const auto age = static_cast<std::int64_t>(current.value()) -
+                     static_cast<std::int64_t>(p->first_keyframe.value());
+    if (p->found_ratio() < 0.25 || (age >= 2 && weighted <= 3)) {
+      m.erase_point(id);
+      ++culled;
+    } else if (age < 3) {
+      keep.push_back(id);
+    }
+  }
+  recent_points_ = std::move(keep);
+  std::lock_guard slock(state_mutex_);
+  stats_.points_culled += culled;
+}
+
+void LocalMapper::fuse_neighbours(KeyframeId current) {
+  std::lock_guard lock(shared_.mutex);
+  map::Map& m = shared_.map;
+  if (!m.keyframe(current)) return;
+  std::vector<KeyframeId> targets = m.covisible(current, options_.fusion_neighbours);
+  std::set<KeyframeId> seen(targets.begin(), targets.end());
+  for (KeyframeId k : std::vector<KeyframeId>(targets)) {
+    for (KeyframeId k2 : m.covisible(k, 5)) {
+      if (k2 != current && seen.insert(k2).second) targets.push_back(k2);
+    }
+  }
+  int fused = 0;
+  for (KeyframeId t : targets) {
+    const map::Keyframe* kf = m.keyframe(current);
+    if (!kf) break;
+    std::vector<MapPointId> pts;
+    for (MapPointId p : kf->frame.points)
+      if (p.valid()) pts.push_back(p);
+    fused += fuse_points(m, t, pts, options_.fusion_radius);
+  }
+  std::vector<MapPointId> candidates;
+  std::unordered_set<MapPointId> unique;
+  for (KeyframeId t : targets) {
+    const map::Keyframe* kf = m.keyframe(t);
+    if (!kf) continue;
+    for (MapPointId p : kf->frame.points) {
+      if (p.valid() && unique.insert(p).second) candidates.push_back(p);
+    }
+  }
+  fused += fuse_points(m, current, candidates, options_.fusion_radius);
+  const map::Keyframe* kf = m.keyframe(current);
+  if (!kf) return;
+  for (MapPointId p : kf->frame.points)
+    if (p.valid() && m.point(p)) m.update_point(p);
+  m.update_connections(current);
+  std::lock_guard slock(state_mutex_);
+  stats_.points_fused += fused;
+}
+
+}  // namespace coloc::slam::mapping

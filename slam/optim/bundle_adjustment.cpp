@@ -1,0 +1,221 @@
+#include "slam/optim/bundle_adjustment.hpp"
+
+#include <ceres/loss_function.h>
+#include <ceres/problem.h>
+#include <ceres/solver.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+
+#include "slam/core/error.hpp"
+
+namespace coloc::slam::optim {
+
+void BundleOptions::check() const {
+  if (iterations_robust < 0 || iterations_refine < 0) throw Error("BundleOptions.iterations_* < 0");
+  if (!(chi2_stereo > 0.0)) throw Error("BundleOptions.chi2_stereo must be > 0");
+  if (!(chi2_mono > 0.0)) throw Error("BundleOptions.chi2_mono must be > 0");
+}
+
+void pose_to_array(const SE3& pose, double* x) {
+  const Eigen::Vector3d& t = pose.translation();
+  const Eigen::Quaterniond& q = pose.quaternion();
+  x[0] = t.x();
+  x[1] = t.y();
+  x[2] = t.z();
+  x[3] = q.x();
+  x[4] = q.y();
+  x[5] = q.z();
+  x[6] = q.w();
+}
+
+SE3 pose_from_array(const double* x) {
+  return SE3(Eigen::Quaterniond(x[6], x[3], x[4], x[5]).normalized(),
+             Eigen::Vector3d(x[0], x[1], x[2]));
+}
+
+bool PoseManifold::Plus(const double* x, const double* delta, double* out) const {
+  const Vector6d d = Eigen::Map<const Vector6d>(delta);
+  pose_to_array(SE3::exp(d) * pose_from_array(x), out);
+  return true;
+}
+
+bool PoseManifold::PlusJacobian(const double*, double* jacobian) const {
+  Eigen::Map<Eigen::Matrix<double, 7, 6, Eigen::RowMajor>> j(jacobian);
+  j.setZero();
+  j.topRows<6>().setIdentity();
+  return true;
+}
+
+bool PoseManifold::Minus(const double* y, const double* x, double* out) const {
+  Eigen::Map<Vector6d> m(out);
+  m = (pose_from_array(y) * pose_from_array(x).inverse()).log();
+  return true;
+}
+
+bool PoseManifold::MinusJacobian(const double*, double* jacobian) const {
+  Eigen::Map<Eigen::Matrix<double, 6, 7, Eigen::RowMajor>> j(jacobian);
+  j.setZero();
+  j.leftCols<6>().setIdentity();
+  return true;
+}
+
+namespace {
+
+template <int kRows, typename Residual, typename Obs>
+bool evaluate_cost(const Intrinsics& k, const Obs& obs, double inv_sigma,
+                   double const* const* params, double* residuals, double** jacobians,
+                   Residual residual_fn) {
+  const SE3 pose = pose_from_array(params[0]);
+  const Eigen::Vector3d world(params[1][0], params[1][1], params[1][2]);
+  const Eigen::Vector3d p = pose * world;
+  Eigen::Matrix<double, kRows, 1> r;
+  Eigen::Matrix<double, kRows, 3> jr;
+  if (!residual_fn(k, p, obs, r, &jr)) {
+    // Behind the camera: a large constant residual with zero slope keeps the solver sane.
+    for (int i = 0; i < kRows; ++i)
+      residuals[i] = 1e3;
+    if (jacobians) {
+      if (jacobians[0]) std::fill(jacobians[0], jacobians[0] + kRows * 7, 0.0);
+      if (jacobians[1]) std::fill(jacobians[1], jacobians[1] + kRows * 3, 0.0);
+    }
+    return true;
+  }
+  Eigen::Map<Eigen::Matrix<double, kRows, 1>> res(residuals);
+  res = inv_sigma * r;
+  if (jacobians) {
+    if (jacobians[0]) {
+      Eigen::Map<Eigen::Matrix<double, kRows, 7, Eigen::RowMajor>> j(jacobians[0]);
+      j.template leftCols<6>() = inv_sigma * jr * pcam_jacobian_pose(p);
+      j.col(6).setZero();
+    }
+    if (jacobians[1]) {
+      Eigen::Map<Eigen::Matrix<double, kRows, 3, Eigen::RowMajor>> jp(jacobians[1]);
+      jp = inv_sigma * jr * pose.rotation();
+    }
+  }
+  return true;
+}
+
+class AbortCallback : public ceres::IterationCallback {
+ public:
+  explicit AbortCallback(const std::atomic<bool>* flag) : flag_(flag) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return (flag_ && flag_->load()) ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::atomic<bool>* flag_;
+};
+
+}  // namespace
+
+bool StereoReprojectionCost::Evaluate(double const* const* parameters, double* residuals,
+                                      double** jacobians) const {
+  return evaluate_cost<3>(
+      k_, obs_, inv_sigma_, parameters, residuals, jacobians,
+      [](const Intrinsics& k, const Eigen::Vector3d& p, const Eigen::Vector3d& o,
+         Eigen::Vector3d& r, Eigen::Matrix3d* j) { return stereo_residual(k, p, o, r, j); });
+}
+
+bool MonoReprojectionCost::Evaluate(double const* const* parameters, double* residuals,
+                                    double** jacobians) const {
+  return evaluate_cost<2>(
+      k_, obs_, inv_sigma_, parameters, residuals, jacobians,
+      [](const Intrinsics& k, const Eigen::Vector3d& p, const Eigen::Vector2d& o,
+         Eigen::Vector2d& r,
+         Eigen::Matrix<double, 2, 3>* j) { return mono_residual(k, p, o, r, j); });
+}
+
+namespace {
+
+// One Ceres solve over the observations not flagged in `skip`. Returns iterations run.
+int solve(BundleProblem& problem, std::vector<double>& pose_params, const Intrinsics& k,
+          const BundleOptions& options, const std::vector<std::uint8_t>& skip, bool robust,
+          int iterations, const std::atomic<bool>* abort, BundleResult& result) {
+  ceres::Problem::Options popts;
+  popts.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem ceres_problem(popts);
+  PoseManifold manifold;
+  std::vector<std::uint8_t> used_pose(problem.poses.size(), 0);
+  for (std::size_t i = 0; i < problem.observations.size(); ++i) {
+    if (skip[i]) continue;
+    const auto& o = problem.observations[i];
+    double* pose = &pose_params[7 * o.pose];
+    double* point = problem.points[o.point].data();
+    const double inv_sigma = std::sqrt(o.inv_sigma2);
+    ceres::LossFunction* loss = nullptr;
+    if (o.u_right >= 0.0) {
+      if (robust) loss = new ceres::HuberLoss(std::sqrt(options.chi2_stereo));
+      ceres_problem.AddResidualBlock(
+          new StereoReprojectionCost(k, {o.pixel.x(), o.pixel.y(), o.u_right}, inv_sigma), loss,
+          pose, point);
+    } else {
+      if (robust) loss = new ceres::HuberLoss(std::sqrt(options.chi2_mono));
+      ceres_problem.AddResidualBlock(new MonoReprojectionCost(k, o.pixel, inv_sigma), loss, pose,
+                                     point);
+    }
+    if (!used_pose[o.pose]) {
+      used_pose[o.pose] = 1;
+      ceres_problem.SetManifold(pose, &manifold);
+      if (problem.poses[o.pose].fixed) ceres_problem.SetParameterBlockConstant(pose);
+    }
+  }
+  if (ceres_problem.NumResidualBlocks() == 0) return 0;
+  ceres::Solver::Options sopts;
+  sopts.linear_solver_type = ceres::SPARSE_SCHUR;
+  sopts.max_num_iterations = iterations;
+  sopts.num_threads = 1;
+  sopts.logging_type = ceres::SILENT;
+  AbortCallback callback(abort);
+  sopts.callbacks.push_back(&callback);
+  ceres::Solver::Summary summary;
+  ceres::Solve(sopts, &ceres_problem, &summary);
+  if (result.iterations == 0) result.initial_cost = summary.initial_cost;
+  result.final_cost = summary.final_cost;
+  return static_cast<int>(summary.iterations.size());
+}
+
+}  // namespace
+
+BundleResult bundle_adjust(BundleProblem& problem, const Intrinsics& k,
+                           const BundleOptions& options, const std::atomic<bool>* abort) {
+  options.check();
+  BundleResult result;
+  result.outlier.assign(problem.observations.size(), 0);
+  std::vector<double> pose_params(7 * problem.poses.size());
+  for (std::size_t i = 0; i < problem.poses.size(); ++i)
+    pose_to_array(problem.poses[i].cam_from_world, &pose_params[7 * i]);
+
+  result.iterations += solve(problem, pose_params, k, options, result.outlier, true,
+                             options.iterations_robust, abort, result);
+  // Classify with the chi2 thresholds (ORB-SLAM also drops points behind the camera).
+  for (std::size_t i = 0; i < problem.observations.size(); ++i) {
+    const auto& o = problem.observations[i];
+    const SE3 pose = pose_from_array(&pose_params[7 * o.pose]);
+    const Eigen::Vector3d p = pose * problem.points[o.point];
+    double chi2 = -1.0;
+    if (o.u_right >= 0.0) {
+      Eigen::Vector3d r;
+      if (stereo_residual(k, p, {o.pixel.x(), o.pixel.y(), o.u_right}, r, nullptr))
+        chi2 = r.squaredNorm() * o.inv_sigma2;
+      result.outlier[i] = (chi2 < 0.0 || chi2 > options.chi2_stereo) ? 1 : 0;
+    } else {
+      Eigen::Vector2d r;
+      if (mono_residual(k, p, o.pixel, r, nullptr)) chi2 = r.squaredNorm() * o.inv_sigma2;
+      result.outlier[i] = (chi2 < 0.0 || chi2 > options.chi2_mono) ? 1 : 0;
+    }
+  }
+  if (!(abort && abort->load()) && options.iterations_refine > 0) {
+    result.iterations += solve(problem, pose_params, k, options, result.outlier, false,
+                               options.iterations_refine, abort, result);
+  }
+  result.aborted = abort && abort->load();
+  for (std::size_t i = 0; i < problem.poses.size(); ++i) {
+    problem.poses[i].cam_from_world = pose_from_array(&pose_params[7 * i]);
+  }
+  return result;
+}
+
+}  // namespace coloc::slam::optim

@@ -1,0 +1,104 @@
+#pragma once
+// Bundle adjustment over keyframe poses and points with Ceres (sparse Schur, Huber kernel),
+// ORB-SLAM's local BA: optimize, drop observations whose chi2 exceeds 7.815 (stereo-like) /
+// 5.991 (monocular), optimize again without the kernel. Fixed poses (keyframes outside the
+// window that see window points) constrain the gauge. The problem is a value: the caller
+// copies the window out of the map, runs this without holding the map lock, and writes back.
+//
+// Pose parameter blocks are [tx ty tz qx qy qz qw] of cam_from_world with the manifold
+// x <- exp(delta) * x (delta = (rho, phi)); cost functions give d r / d delta analytically in the
+// first six ambient columns (the "lifted" Jacobian, PlusJacobian = [I; 0]).
+#include <ceres/cost_function.h>
+#include <ceres/manifold.h>
+#include <ceres/sized_cost_function.h>
+
+#include <atomic>
+#include <cstdint>
+#include <vector>
+
+#include "slam/core/se3.hpp"
+#include "slam/optim/reprojection.hpp"
+
+namespace coloc::slam::optim {
+
+struct BundleProblem {
+  struct Pose {
+    SE3 cam_from_world;
+    bool fixed = false;
+  };
+  struct Observation {
+    std::uint32_t pose = 0;   // index into poses
+    std::uint32_t point = 0;  // index into points
+    Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
+    double u_right = -1.0;  // < 0: monocular
+    double inv_sigma2 = 1.0;
+  };
+  std::vector<Pose> poses;
+  std::vector<Eigen::Vector3d> points;  // world, metres
+  std::vector<Observation> observations;
+};
+
+struct BundleOptions {
+  int iterations_robust = 5;   // first pass, Huber kernel
+  int iterations_refine = 10;  // second pass, outliers removed, no kernel
+  double chi2_stereo = 7.815;
+  double chi2_mono = 5.991;
+  // Throws coloc::Error naming the first invalid field.
+  void check() const;
+};
+
+struct BundleResult {
+  std::vector<std::uint8_t> outlier;  // per observation, after the first pass
+  bool aborted = false;               // the abort flag was raised (results still usable)
+  int iterations = 0;
+  double initial_cost = 0.0, final_cost = 0.0;
+};
+
+// Optimizes `problem` in place. `abort` (may be null) is polled between iterations.
+BundleResult bundle_adjust(BundleProblem& problem, const Intrinsics& intrinsics,
+                           const BundleOptions& options = {},
+                           const std::atomic<bool>* abort = nullptr);
+
+// The pose manifold described above (exposed for tests).
+class PoseManifold : public ceres::Manifold {
+ public:
+  int AmbientSize() const override { return 7; }
+  int TangentSize() const override { return 6; }
+  bool Plus(const double* x, const double* delta, double* x_plus_delta) const override;
+  bool PlusJacobian(const double* x, double* jacobian) const override;
+  bool Minus(const double* y, const double* x, double* y_minus_x) const override;
+  bool MinusJacobian(const double* x, double* jacobian) const override;
+};
+
+// Whitened reprojection residuals with analytic (lifted) Jacobians w.r.t. pose and point.
+class StereoReprojectionCost : public ceres::SizedCostFunction<3, 7, 3> {
+ public:
+  StereoReprojectionCost(const Intrinsics& k, const Eigen::Vector3d& obs, double inv_sigma)
+      : k_(k), obs_(obs), inv_sigma_(inv_sigma) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  Intrinsics k_;
+  Eigen::Vector3d obs_;
+  double inv_sigma_;
+};
+
+class MonoReprojectionCost : public ceres::SizedCostFunction<2, 7, 3> {
+ public:
+  MonoReprojectionCost(const Intrinsics& k, const Eigen::Vector2d& obs, double inv_sigma)
+      : k_(k), obs_(obs), inv_sigma_(inv_sigma) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  Intrinsics k_;
+  Eigen::Vector2d obs_;
+  double inv_sigma_;
+};
+
+// Pose <-> 7-vector [t, q(xyzw)].
+void pose_to_array(const SE3& pose, double* x);
+SE3 pose_from_array(const double* x);
+
+}  // namespace coloc::slam::optim

@@ -1,0 +1,144 @@
+#include "slam/system/system.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <sstream>
+
+#include "slam/core/error.hpp"
+
+namespace coloc::slam::system {
+
+void SystemOptions::check() const {
+  tracking.check();
+  mapping.check();
+}
+
+std::string SystemOptions::describe() const {
+  std::ostringstream s;
+  s << "tracking.min_init_points " << tracking.min_init_points << "\n"
+    << "tracking.motion_search_radius " << tracking.motion_search_radius << "\n"
+    << "tracking.local_search_th " << tracking.local_search_th << "\n"
+    << "tracking.min_local_inliers " << tracking.min_local_inliers << "\n"
+    << "tracking.max_frames_between_keyframes " << tracking.max_frames_between_keyframes << "\n"
+    << "tracking.close_tracked_limit " << tracking.close_tracked_limit << "\n"
+    << "tracking.close_untracked_limit " << tracking.close_untracked_limit << "\n"
+    << "tracking.relocalization.min_inliers " << tracking.relocalization.min_inliers << "\n"
+    << "mapping.queue_capacity " << mapping.queue_capacity << "\n"
+    << "mapping.local_ba " << mapping.local_ba << " (iterations " << mapping.ba.iterations_robust
+    << " + " << mapping.ba.iterations_refine << ")\n"
+    << "mapping.keyframe_culling " << mapping.keyframe_culling << " (redundancy "
+    << mapping.redundancy << ")\n"
+    << "sequential_mapping " << sequential_mapping << "\n"
+    << "detect_markers " << detect_markers;
+  return s.str();
+}
+
+std::string SystemSummary::describe() const {
+  std::ostringstream s;
+  s << "frames " << frames << ", tracked " << tracked << ", lost " << lost << ", keyframes "
+    << keyframes << ", map points " << points << ", relocalizations " << relocalizations
+    << ", markers " << mapping.markers << "\n"
+    << "tracking ms/frame: median " << total_ms.median << ", p99 " << total_ms.p99
+    << " (extraction median " << extract_ms.median << ")\n";
+  const SampleStats ba = summarize(mapping.ba_ms);
+  s << "local BA: " << mapping.ba_runs << " runs (" << mapping.ba_aborted << " aborted), ms median "
+    << ba.median << ", p99 " << ba.p99 << "; keyframes culled " << mapping.keyframes_culled
+    << ", points culled " << mapping.points_culled << ", fused " << mapping.points_fused;
+  return s.str();
+}
+
+System::System(const settings::Settings& settings, const bow::Vocabulary& vocabulary,
+               SystemOptions options)
+    : options_(std::move(options)), shared_(std::make_unique<map::SharedMap>()) {
+  options_.check();
+  if (!settings.depth)
+    throw Error("System: settings without depth (Camera.bf / ThDepth) for RGB-D",
+                {settings.source.string(), "Camera.bf"});
+  if (vocabulary.empty()) throw Error("System: empty vocabulary");
+  features::ExtractorOptions extractor{settings.orb.n_features, settings.orb.scale_factor,
+                                       settings.orb.n_levels, settings.orb.ini_th_fast,
+                                       settings.orb.min_th_fast};
+  extractor.check();
+  const features::OrbExtractor probe(extractor);
+  auto geometry = std::make_shared<frame::FrameGeometry>(frame::FrameGeometry::make(
+      settings.camera, settings.depth->bf, settings.depth->close_depth, probe.scale_factors()));
+  geometry->check();
+  if (options_.detect_markers) {
+    markers::DetectorOptions d;
+    d.dictionary = settings.markers.dictionary;
+    detector_ = std::make_unique<markers::MarkerDetector>(d);
+  }
+  spdlog::info("slam options:\n{}", options_.describe());
+  mapper_ = std::make_unique<mapping::LocalMapper>(*shared_, vocabulary, detector_.get(),
+                                                   options_.mapping);
+  tracker_ = std::make_unique<tracking::Tracker>(*shared_, *mapper_, vocabulary, geometry,
+                                                 extractor, settings.camera, options_.tracking,
+                                                 options_.sequential_mapping);
+  mapper_->start();
+}
+
+System::~System() {
+  shutdown();
+}
+
+void System::shutdown() {
+  if (mapper_) mapper_->stop();
+}
+
+tracking::TrackingResult System::track(const cv::Mat& image, const cv::Mat& depth,
+                                       double timestamp) {
+  if (image.empty()) throw Error("System::track: empty image");
+  auto r = tracker_->track(image, depth, timestamp);
+  extract_ms_.push_back(r.extract_ms);
+  track_ms_.push_back(r.track_ms);
+  return r;
+}
+
+Trajectory System::trajectory() const {
+  std::lock_guard lock(shared_->mutex);
+  Trajectory out;
+  for (const auto& rec : tracker_->records()) {
+    if (!rec.tracked) continue;
+    const auto ref = shared_->map.keyframe_pose(rec.reference);
+    if (!ref) continue;
+    out.push_back({rec.timestamp, (rec.cam_from_reference * *ref).inverse()});
+  }
+  return out;
+}
+
+Trajectory System::keyframe_trajectory() const {
+  std::lock_guard lock(shared_->mutex);
+  std::vector<const map::Keyframe*> kfs;
+  for (const auto& [id, kf] : shared_->map.keyframes())
+    kfs.push_back(&kf);
+  std::sort(kfs.begin(), kfs.end(), [](const auto* a, const auto* b) { return a->id < b->id; });
+  Trajectory out;
+  for (const auto* kf : kfs)
+    out.push_back({kf->frame.timestamp, kf->cam_from_world().inverse()});
+  return out;
+}
+
+SystemSummary System::summary() const {
+  SystemSummary s;
+  s.frames = extract_ms_.size();
+  for (const auto& rec : tracker_->records())
+    s.tracked += rec.tracked ? 1 : 0;
+  s.lost = s.frames - s.tracked;
+  {
+    std::lock_guard lock(shared_->mutex);
+    s.keyframes = shared_->map.keyframe_count();
+    s.points = shared_->map.point_count();
+  }
+  s.relocalizations = tracker_->relocalizations();
+  s.mapping = mapper_->stats();
+  std::vector<double> total(extract_ms_.size());
+  for (std::size_t i = 0; i < total.size(); ++i)
+    total[i] = extract_ms_[i] + track_ms_[i];
+  s.extract_ms = summarize(extract_ms_);
+  s.track_ms = summarize(track_ms_);
+  s.total_ms = summarize(total);
+  return s;
+}
+
+}  // namespace coloc::slam::system

@@ -1,0 +1,76 @@
+#pragma once
+// The RGB-D SLAM system: tracking in the caller's thread, local mapping in one std::thread,
+// joined by the mapper's bounded blocking queue; the map shared under SharedMap::mutex.
+// Construct, call track() per frame, then shutdown() (also done by the destructor) and read
+// the trajectory. Not copyable; track() must be called from one thread at a time.
+#include <memory>
+#include <opencv2/core/mat.hpp>
+#include <string>
+
+#include "markers/detector.hpp"
+#include "slam/bow/vocabulary.hpp"
+#include "slam/core/timing.hpp"
+#include "slam/core/trajectory.hpp"
+#include "slam/map/shared_map.hpp"
+#include "slam/mapping/local_mapper.hpp"
+#include "slam/settings/settings.hpp"
+#include "slam/tracking/tracker.hpp"
+
+namespace coloc::slam::system {
+
+struct SystemOptions {
+  tracking::TrackingOptions tracking;
+  mapping::LocalMappingOptions mapping;
+  // Tracking waits for local mapping after each keyframe: deterministic, slower (tests).
+  bool sequential_mapping = false;
+  bool detect_markers = true;  // run the marker detector on every keyframe
+  // Throws coloc::Error naming the first invalid field.
+  void check() const;
+  // The effective values, one per line (logged at start).
+  std::string describe() const;
+};
+
+struct SystemSummary {
+  std::size_t frames = 0, tracked = 0, lost = 0;
+  std::size_t keyframes = 0, points = 0;
+  int relocalizations = 0;
+  mapping::MappingStats mapping;
+  SampleStats extract_ms, track_ms, total_ms;  // per frame, tracking thread
+  std::string describe() const;
+};
+
+class System {
+ public:
+  // Needs settings with depth (Camera.bf, ThDepth). `vocabulary` must outlive the System.
+  System(const settings::Settings& settings, const bow::Vocabulary& vocabulary,
+         SystemOptions options = {});
+  ~System();
+  System(const System&) = delete;
+  System& operator=(const System&) = delete;
+
+  // `image` 8-bit BGR/grey, `depth` CV_32FC1 metres (0 = invalid), timestamp in seconds.
+  tracking::TrackingResult track(const cv::Mat& image, const cv::Mat& depth, double timestamp);
+  // Stops local mapping (aborting a running BA) and joins its thread. Idempotent.
+  void shutdown();
+
+  // world_from_cam of every tracked frame (after initialization), following keyframe updates.
+  Trajectory trajectory() const;
+  Trajectory keyframe_trajectory() const;
+  SystemSummary summary() const;
+  // Runs f(const map::Map&) under the map lock.
+  template <typename F>
+  auto with_map(F&& f) const {
+    std::lock_guard lock(shared_->mutex);
+    return f(static_cast<const map::Map&>(shared_->map));
+  }
+
+ private:
+  SystemOptions options_;
+  std::unique_ptr<map::SharedMap> shared_;
+  std::unique_ptr<markers::MarkerDetector> detector_;
+  std::unique_ptr<mapping::LocalMapper> mapper_;
+  std::unique_ptr<tracking::Tracker> tracker_;
+  std::vector<double> extract_ms_, track_ms_;
+};
+
+}  // namespace coloc::slam::system

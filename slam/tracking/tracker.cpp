@@ -1,0 +1,363 @@
+#include "slam/tracking/tracker.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <opencv2/imgproc.hpp>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "slam/core/error.hpp"
+#include "slam/core/timing.hpp"
+#include "slam/tracking/pose_support.hpp"
+#include "slam/tracking/search.hpp"
+
+namespace coloc::slam::tracking {
+
+const char* to_string(TrackingState state) {
+  switch (state) {
+    case TrackingState::kNotInitialized:
+      return "not initialized";
+    case TrackingState::kOk:
+      return "ok";
+    case TrackingState::kLost:
+      return "lost";
+  }
+  return "?";
+}
+
+void TrackingOptions::check() const {
+  if (min_init_points < 10) throw Error("TrackingOptions.min_init_points must be >= 10");
+  if (!(motion_search_radius > 0.0))
+    throw Error("TrackingOptions.motion_search_radius must be > 0");
+  if (!(local_search_th > 0.0)) throw Error("TrackingOptions.local_search_th must be > 0");
+  if (min_local_inliers < 10) throw Error("TrackingOptions.min_local_inliers must be >= 10");
+  if (max_frames_between_keyframes < 1)
+    throw Error("TrackingOptions.max_frames_between_keyframes must be >= 1");
+  if (max_local_keyframes < 1) throw Error("TrackingOptions.max_local_keyframes must be >= 1");
+  relocalization.check();
+}
+
+Tracker::Tracker(map::SharedMap& map, mapping::LocalMapper& mapper,
+                 const bow::Vocabulary& vocabulary,
+                 std::shared_ptr<const frame::FrameGeometry> geometry,
+                 const features::ExtractorOptions& extractor, const Camera& camera,
+                 TrackingOptions options, bool sequential_mapping)
+    : shared_(map),
+      mapper_(mapper),
+      vocabulary_(vocabulary),
+      geometry_(std::move(geometry)),
+      extractor_(extractor),
+      camera_(camera),
+      options_(std::move(options)),
+      sequential_(sequential_mapping) {
+  options_.check();
+  geometry_->check();
+}
+
+void Tracker::compute_bow(frame::Frame& f) const {
+  if (f.bow.empty()) vocabulary_.transform(f.features.descriptors, f.bow, f.feature_vector);
+}
+
+TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double timestamp) {
+  TrackingResult result;
+  Stopwatch watch;
+  cv::Mat grey = image;
+  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  current_ = frame::Frame(frame_ids_.next(), timestamp, extractor_.extract(grey, &camera_), depth,
+                          geometry_);
+  result.extract_ms = watch.elapsed_ms();
+  watch.restart();
+  bool make_keyframe = false;
+  {
+    std::lock_guard lock(shared_.mutex);
+    bool ok = false;
+    if (state_ == TrackingState::kNotInitialized) {
+      ok = initialize();
+      if (ok) result.keyframe = true;
+    } else {
+      if (state_ == TrackingState::kOk) {
+        if (!shared_.map.keyframe(reference_)) update_local_map();
+        ok = has_velocity_ && track_motion_model();
+        if (!ok) ok = track_reference_keyframe();
+      } else {
+        ok = relocalize();
+        result.relocalized = ok;
+      }
+      if (ok) ok = track_local_map();
+      if (ok) {
+        if (last_.has_pose) {
+          velocity_ = current_.cam_from_world * last_.cam_from_world.inverse();
+          has_velocity_ = true;
+        }
+        make_keyframe = need_keyframe();
+      } else {
+        has_velocity_ = false;
+      }
+      state_ = ok ? TrackingState::kOk : TrackingState::kLost;
+    }
+    if (state_ != TrackingState::kNotInitialized) {
+      FrameRecord rec;
+      rec.timestamp = timestamp;
+      rec.tracked = ok;
+      const map::Keyframe* ref = shared_.map.keyframe(reference_);
+      if (ok && ref) {
+        rec.reference = reference_;
+        rec.cam_from_reference = current_.cam_from_world * ref->cam_from_world().inverse();
+      }
+      records_.push_back(rec);
+    }
+    if (make_keyframe) create_keyframe(grey);
+  }
+  if (result.keyframe || make_keyframe) {
+    mapper_.push({reference_, grey.clone()});
+    if (sequential_) mapper_.wait_idle();
+  }
+  result.keyframe = result.keyframe || make_keyframe;
+  result.state = state_;
+  result.cam_from_world = current_.cam_from_world;
+  result.inliers = matches_inliers_;
+  if (result.state == TrackingState::kOk) {
+    drop_outliers(current_);
+    last_ = current_;
+  } else {
+    last_ = frame::Frame();
+  }
+  result.track_ms = watch.elapsed_ms();
+  return result;
+}
+
+bool Tracker::initialize() {
+  int with_depth = 0;
+  for (std::size_t i = 0; i < current_.size(); ++i)
+    with_depth += current_.has_depth(i) ? 1 : 0;
+  if (with_depth < options_.min_init_points) return false;
+  map::Map& m = shared_.map;
+  current_.cam_from_world = SE3();
+  current_.has_pose = true;
+  compute_bow(current_);
+  map::Keyframe kf;
+  kf.id = m.next_keyframe_id();
+  kf.frame = current_;
+  const KeyframeId id = kf.id;
+  m.add_keyframe(std::move(kf));
+  for (std::size_t i = 0; i < current_.size(); ++i) {
+    if (!current_.has_depth(i)) continue;
+    const MapPointId p =
+        m.add_point(current_.unproject_world(i), id, static_cast<std::uint32_t>(i)).id;
+    current_.points[i] = p;
+  }
+  reference_ = id;
+  last_keyframe_frame_ = current_.id;
+  local_keyframes_ = {id};
+  local_points_.clear();
+  for (MapPointId p : current_.points)
+    if (p.valid()) local_points_.push_back(p);
+  state_ = TrackingState::kOk;
+  matches_inliers_ = static_cast<int>(local_points_.size());
+  spdlog::info("tracking: initialized with {} points", local_points_.size());
+  return true;
+}
+
+bool Tracker::track_motion_model() {
+  const map::Map& m = shared_.map;
+  current_.cam_from_world = velocity_ * last_.cam_from_world;
+  current_.points.assign(current_.size(), MapPointId::invalid());
+  int n = search_from_last_frame(current_, last_, m, options_.motion_search_radius);
+  if (n < 20) {
+    current_.points.assign(current_.size(), MapPointId::invalid());
+    n = search_from_last_frame(current_, last_, m, 2.0 * options_.motion_search_radius);
+  }
+  if (n < 20) return false;
+  optimize_frame_pose(current_, m);
+  int kept = 0;
+  for (std::size_t i = 0; i < current_.size(); ++i) {
+    if (current_.points[i].valid() && !current_.outlier[i]) ++kept;
+  }
+  drop_outliers(current_);
+  return kept >= 10;
+}
+
+bool Tracker::track_reference_keyframe() {
+  map::Map& m = shared_.map;
+  map::Keyframe* ref = m.keyframe(reference_);
+  if (!ref || !last_.has_pose) return false;
+  compute_bow(current_);
+  if (ref->frame.feature_vector.entries.empty()) compute_bow(ref->frame);
+  current_.points.assign(current_.size(), MapPointId::invalid());
+  if (search_by_bow(*ref, current_, m) < 15) return false;
+  current_.cam_from_world = last_.cam_from_world;
+  const int inliers = optimize_frame_pose(current_, m);
+  drop_outliers(current_);
+  return inliers >= 10;
+}
+
+bool Tracker::relocalize() {
+  compute_bow(current_);
+  const auto r =
+      reloc::relocalize(current_, shared_.map, shared_.database, options_.relocalization);
+  if (!r.success) return false;
+  reference_ = r.keyframe;
+  last_reloc_frame_ = current_.id;
+  ++relocalizations_;
+  spdlog::info("tracking: relocalized at frame {} against keyframe {} ({} inliers)",
+               current_.id.value(), r.keyframe.value(), r.inliers);
+  return true;
+}
+
+void Tracker::update_local_map() {
+  const map::Map& m = shared_.map;
+  std::unordered_map<KeyframeId, int> counts;
+  for (std::size_t i = 0; i < current_.size(); ++i) {
+    const map::MapPoint* p = current_.points[i].valid() ? m.point(current_.points[i]) : nullptr;
+    if (!p) continue;
+    for (const auto& [k, idx] : p->observations)
+      ++counts[k];
+  }
+  if (counts.empty() && m.keyframe(reference_)) counts[reference_] = 1;
+  std::vector<KeyframeId> local;
+  std::unordered_set<KeyframeId> in_local;
+  KeyframeId best;
+  int best_count = 0;
+  for (const auto& [k, c] : counts) {
+    if (!m.keyframe(k)) continue;
+    local.push_back(k);
+    in_local.insert(k);
+    if (c > best_count || (c == best_count && k > best)) {
+      best_count = c;
+      best = k;
+    }
+  }
+  std::sort(local.begin(), local.end(),
+            [&](KeyframeId a, KeyframeId b) { return counts[a] > counts[b]; });
+  const std::size_t first_ring = local.size();
+  for (std::size_t i = 0; i < first_ring && local.size() < options_.max_local_keyframes; ++i) {
+    const map::Keyframe* kf = m.keyframe(local[i]);
+    std::vector<KeyframeId> extra = m.covisible(local[i], 10);
+    for (KeyframeId c : kf->children)
+      extra.push_back(c);
+    if (kf->parent.valid()) extra.push_back(kf->parent);
+    for (KeyframeId k : extra) {
+      if (m.keyframe(k) && in_local.insert(k).second) local.push_back(k);
+    }
+  }
+  if (best.valid()) reference_ = best;
+  local_keyframes_ = std::move(local);
+  std::unordered_set<MapPointId> seen;
+  local_points_.clear();
+  for (KeyframeId k : local_keyframes_) {
+    for (MapPointId p : m.keyframe(k)->frame.points) {
+      if (p.valid() && seen.insert(p).second) local_points_.push_back(p);
+    }
+  }
+}
+
+bool Tracker::track_local_map() {
+  map::Map& m = shared_.map;
+  update_local_map();
+  // Points already matched count as found (and visible); the rest are searched.
+  std::unordered_set<MapPointId> matched;
+  for (std::size_t i = 0; i < current_.size(); ++i) {
+    if (current_.points[i].valid()) matched.insert(current_.points[i]);
+  }
+  for (MapPointId p : matched) {
+    if (map::MapPoint* mp = m.point(p)) ++mp->visible;
+  }
+  std::vector<MapPointId> candidates;
+  for (MapPointId p : local_points_)
+    if (!matched.count(p)) candidates.push_back(p);
+  const bool recent_reloc =
+      last_reloc_frame_.valid() && current_.id.value() < last_reloc_frame_.value() + 2;
+  search_local_points(current_, candidates, m, recent_reloc ? 5.0 : options_.local_search_th);
+  optimize_frame_pose(current_, m);
+  matches_inliers_ = 0;
+  for (std::size_t i = 0; i < current_.size(); ++i) {
+    if (!current_.points[i].valid() || current_.outlier[i]) continue;
+    map::MapPoint* p = m.point(current_.points[i]);
+    if (!p) continue;
+    ++p->found;
+    ++matches_inliers_;
+  }
+  current_.has_pose = true;
+  const bool after_reloc =
+      last_reloc_frame_.valid() &&
+      current_.id.value() < last_reloc_frame_.value() +
+                                static_cast<std::uint64_t>(options_.max_frames_between_keyframes);
+  return matches_inliers_ >=
+         (after_reloc ? options_.min_local_inliers_after_reloc : options_.min_local_inliers);
+}
+
+bool Tracker::need_keyframe() const {
+  const map::Map& m = shared_.map;
+  const std::size_t n_kfs = m.keyframe_count();
+  const std::uint64_t since_reloc =
+      last_reloc_frame_.valid() ? current_.id.value() - last_reloc_frame_.value() : ~0ULL;
+  const auto max_frames = static_cast<std::uint64_t>(options_.max_frames_between_keyframes);
+  if (since_reloc < max_frames && n_kfs > max_frames) return false;
+  const map::Keyframe* ref = m.keyframe(reference_);
+  if (!ref) return true;
+  const int min_obs = n_kfs <= 2 ? 2 : 3;
+  int ref_matches = 0;
+  for (MapPointId p : ref->frame.points) {
+    if (p.valid() && m.point(p) && m.weighted_observations(p) >= min_obs) ++ref_matches;
+  }
+  const bool mapping_idle = mapper_.idle();
+  int tracked_close = 0, untracked_close = 0;
+  for (std::size_t i = 0; i < current_.size(); ++i) {
+    if (!current_.is_close(i)) continue;
+    if (current_.points[i].valid() && !current_.outlier[i]) {
+      ++tracked_close;
+    } else {
+      ++untracked_close;
+    }
+  }
+  const bool need_close = tracked_close < options_.close_tracked_limit &&
+                          untracked_close > options_.close_untracked_limit;
+  const double ref_ratio = n_kfs < 2 ? 0.4 : 0.75;
+  const std::uint64_t since_kf = current_.id.value() - last_keyframe_frame_.value();
+  const bool c1a = since_kf >= max_frames;
+  const bool c1b =
+      since_kf >= static_cast<std::uint64_t>(options_.min_frames_between_keyframes) && mapping_idle;
+  const bool c1c = matches_inliers_ < ref_matches * 0.25 || need_close;
+  const bool c2 =
+      (matches_inliers_ < ref_matches * ref_ratio || need_close) && matches_inliers_ > 15;
+  if (!((c1a || c1b || c1c) && c2)) return false;
+  if (mapping_idle) return true;
+  mapper_.interrupt_ba();
+  return mapper_.queued() < 3;
+}
+
+void Tracker::create_keyframe(const cv::Mat&) {
+  map::Map& m = shared_.map;
+  compute_bow(current_);
+  drop_outliers(current_);
+  map::Keyframe kf;
+  kf.id = m.next_keyframe_id();
+  kf.frame = current_;
+  const KeyframeId id = kf.id;
+  m.add_keyframe(std::move(kf));
+  // New points from depth: every close keypoint without a point, then far ones up to a quota.
+  std::vector<std::pair<float, std::size_t>> by_depth;
+  for (std::size_t i = 0; i < current_.size(); ++i) {
+    if (current_.has_depth(i)) by_depth.emplace_back(current_.depth[i], i);
+  }
+  std::sort(by_depth.begin(), by_depth.end());
+  int considered = 0;
+  map::Keyframe* stored = m.keyframe(id);
+  for (const auto& [d, i] : by_depth) {
+    const MapPointId existing = stored->frame.points[i];
+    const map::MapPoint* mp = existing.valid() ? m.point(existing) : nullptr;
+    if (!mp || mp->observations.size() < 1) {
+      const MapPointId p =
+          m.add_point(current_.unproject_world(i), id, static_cast<std::uint32_t>(i)).id;
+      current_.points[i] = p;
+    }
+    ++considered;
+    if (d > geometry_->close_depth && considered > options_.new_points_min) break;
+  }
+  m.update_connections(id);
+  reference_ = id;
+  last_keyframe_frame_ = current_.id;
+}
+
+}  // namespace coloc::slam::tracking

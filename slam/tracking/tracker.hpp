@@ -1,0 +1,110 @@
+#pragma once
+// RGB-D tracking (ORB-SLAM2's Tracking), run in the caller's thread: initialization from the
+// first frame with enough depth, constant-velocity motion model with projection search,
+// fallback to the reference keyframe by BoW matching, relocalization when lost, local-map
+// tracking, and the keyframe decision (ORB-SLAM's criteria with the RGB-D close-points rule).
+// New keyframes (with their close-depth points) go into the map at once and their ids to the
+// local mapper's queue.
+//
+// Threads: track() is called from one thread; it holds SharedMap::mutex while it reads or
+// writes the map, not while it extracts features.
+#include <memory>
+#include <opencv2/core/mat.hpp>
+#include <vector>
+
+#include "slam/bow/vocabulary.hpp"
+#include "slam/frame/frame.hpp"
+#include "slam/map/shared_map.hpp"
+#include "slam/mapping/local_mapper.hpp"
+#include "slam/reloc/relocalizer.hpp"
+
+namespace coloc::slam::tracking {
+
+enum class TrackingState { kNotInitialized, kOk, kLost };
+const char* to_string(TrackingState state);
+
+struct TrackingOptions {
+  int min_init_points = 500;        // keypoints with depth needed to initialize
+  double motion_search_radius = 7;  // pixels (ORB-SLAM's th for stereo/RGB-D)
+  double local_search_th = 3;       // local-map search radius factor (RGB-D)
+  int min_local_inliers = 30;       // local-map inliers to stay tracked
+  int min_local_inliers_after_reloc = 50;
+  int max_frames_between_keyframes = 30;  // fps
+  int min_frames_between_keyframes = 0;
+  int close_tracked_limit = 100;   // RGB-D rule: fewer close tracked points than this ...
+  int close_untracked_limit = 70;  // ... and more close untracked ones => new keyframe
+  int new_points_min = 100;        // new close points per keyframe (then stop at far depth)
+  std::size_t max_local_keyframes = 80;
+  reloc::RelocalizationOptions relocalization;
+  // Throws coloc::Error naming the first invalid field.
+  void check() const;
+};
+
+struct TrackingResult {
+  TrackingState state = TrackingState::kNotInitialized;
+  SE3 cam_from_world;  // valid when state == kOk
+  int inliers = 0;
+  bool keyframe = false;
+  bool relocalized = false;
+  double extract_ms = 0.0, track_ms = 0.0;  // feature extraction, the rest of tracking
+};
+
+// A frame's pose relative to its reference keyframe (ORB-SLAM's trajectory bookkeeping: the
+// final pose follows later optimizations of the keyframe).
+struct FrameRecord {
+  double timestamp = 0.0;
+  KeyframeId reference;
+  SE3 cam_from_reference;
+  bool tracked = false;
+};
+
+class Tracker {
+ public:
+  Tracker(map::SharedMap& map, mapping::LocalMapper& mapper, const bow::Vocabulary& vocabulary,
+          std::shared_ptr<const frame::FrameGeometry> geometry,
+          const features::ExtractorOptions& extractor, const Camera& camera,
+          TrackingOptions options, bool sequential_mapping);
+
+  // `image`: 8-bit grey or BGR; `depth`: CV_32FC1 metres registered to it (0 = invalid).
+  TrackingResult track(const cv::Mat& image, const cv::Mat& depth, double timestamp);
+
+  TrackingState state() const { return state_; }
+  const std::vector<FrameRecord>& records() const { return records_; }
+  int relocalizations() const { return relocalizations_; }
+
+ private:
+  bool initialize();
+  bool track_motion_model();
+  bool track_reference_keyframe();
+  bool relocalize();
+  bool track_local_map();
+  void update_local_map();
+  bool need_keyframe() const;
+  void create_keyframe(const cv::Mat& grey);
+  void compute_bow(frame::Frame& frame) const;
+
+  map::SharedMap& shared_;
+  mapping::LocalMapper& mapper_;
+  const bow::Vocabulary& vocabulary_;
+  std::shared_ptr<const frame::FrameGeometry> geometry_;
+  features::OrbExtractor extractor_;
+  Camera camera_;
+  TrackingOptions options_;
+  bool sequential_;
+
+  IdIssuer<FrameId> frame_ids_;
+  TrackingState state_ = TrackingState::kNotInitialized;
+  frame::Frame current_, last_;
+  SE3 velocity_;  // current_from_last of the last two tracked frames
+  bool has_velocity_ = false;
+  KeyframeId reference_;
+  FrameId last_keyframe_frame_;
+  FrameId last_reloc_frame_;
+  int matches_inliers_ = 0;
+  int relocalizations_ = 0;
+  std::vector<KeyframeId> local_keyframes_;
+  std::vector<MapPointId> local_points_;
+  std::vector<FrameRecord> records_;
+};
+
+}  // namespace coloc::slam::tracking

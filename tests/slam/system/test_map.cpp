@@ -1,0 +1,107 @@
+#include <gtest/gtest.h>
+
+#include "slam/map/map.hpp"
+
+namespace coloc::slam::map {
+namespace {
+
+std::shared_ptr<const frame::FrameGeometry> geometry() {
+  PinholeCamera cam;
+  cam.width = 640;
+  cam.height = 480;
+  cam.fx = cam.fy = 500.0;
+  cam.cx = 320.0;
+  cam.cy = 240.0;
+  return std::make_shared<frame::FrameGeometry>(
+      frame::FrameGeometry::make(cam, 40.0, 3.0, {1.0f, 1.2f, 1.44f}));
+}
+
+// A keyframe with n keypoints on a row, all at depth 2 m, with distinct descriptors.
+Keyframe make_keyframe(Map& map, std::size_t n, const Eigen::Vector3d& centre) {
+  features::OrbFeatures f;
+  for (std::size_t i = 0; i < n; ++i) {
+    features::Keypoint kp;
+    kp.x = kp.ux = 20.0f + 10.0f * static_cast<float>(i);
+    kp.y = kp.uy = 240.0f;
+    f.keypoints.push_back(kp);
+    features::Descriptor d{};
+    d[0] = i * 0x9e3779b97f4a7c15ULL;
+    f.descriptors.push_back(d);
+  }
+  cv::Mat depth(480, 640, CV_32FC1, cv::Scalar(2.0f));
+  Keyframe kf;
+  kf.id = map.next_keyframe_id();
+  kf.frame = frame::Frame(FrameId(kf.id.value()), 0.0, f, depth, geometry());
+  kf.frame.cam_from_world = SE3(SO3(), -centre);
+  return kf;
+}
+
+TEST(Map, ObservationsCovisibilityAndSpanningTreeStayConsistent) {
+  Map map;
+  const KeyframeId a = map.add_keyframe(make_keyframe(map, 40, {0, 0, 0})).id;
+  std::vector<MapPointId> pts;
+  for (std::uint32_t i = 0; i < 40; ++i) {
+    pts.push_back(map.add_point(map.keyframe(a)->frame.unproject_world(i), a, i).id);
+  }
+  EXPECT_EQ(map.point_count(), 40u);
+  // Keyframe b sees the first 30 points, c the last 20.
+  Keyframe kb = make_keyframe(map, 40, {0.1, 0, 0});
+  for (std::size_t i = 0; i < 30; ++i)
+    kb.frame.points[i] = pts[i];
+  const KeyframeId b = map.add_keyframe(std::move(kb)).id;
+  Keyframe kc = make_keyframe(map, 40, {0.2, 0, 0});
+  for (std::size_t i = 20; i < 40; ++i)
+    kc.frame.points[i] = pts[i];
+  const KeyframeId c = map.add_keyframe(std::move(kc)).id;
+  map.update_connections(b);
+  map.update_connections(c);
+  EXPECT_EQ(map.keyframe(b)->covisibility.at(a), 30);
+  EXPECT_EQ(map.keyframe(c)->covisibility.at(a), 20);
+  EXPECT_EQ(map.keyframe(c)->covisibility.count(b), 0u);  // 10 shared points: below 15
+  EXPECT_EQ(map.keyframe(a)->covisible_ordered.front(), b);
+  EXPECT_EQ(map.keyframe(b)->parent, a);
+  EXPECT_EQ(map.keyframe(c)->parent, a);  // strongest covisible when it joined
+  EXPECT_EQ(map.point(pts[25])->observations.size(), 3u);
+  EXPECT_EQ(map.weighted_observations(pts[25]), 6);  // with depth: counted twice
+
+  // Erasing an observation updates both sides; a point left with one keyframe goes.
+  map.erase_observation(pts[5], b);
+  EXPECT_FALSE(map.point(pts[5]));
+  EXPECT_FALSE(map.keyframe(a)->frame.points[5].valid());
+  EXPECT_FALSE(map.keyframe(b)->frame.points[5].valid());
+
+  // Merging: the point with more observations survives and takes the other's keyframes.
+  map.replace_point(pts[35], pts[25]);
+  EXPECT_FALSE(map.point(pts[35]));
+  EXPECT_EQ(map.keyframe(c)->frame.points[35], MapPointId::invalid());  // c already saw 25
+
+  // Erasing b re-attaches nothing (no children) and keeps its pose reachable via its parent.
+  const SE3 pose_b = map.keyframe(b)->cam_from_world();
+  map.erase_keyframe(b);
+  EXPECT_FALSE(map.keyframe(b));
+  EXPECT_FALSE(map.keyframe(a)->children.count(b));
+  EXPECT_EQ(map.keyframe(a)->covisibility.count(b), 0u);
+  const auto again = map.keyframe_pose(b);
+  ASSERT_TRUE(again.has_value());
+  EXPECT_LT(translation_distance(*again, pose_b), 1e-12);
+  for (const auto& [id, p] : map.points()) {
+    for (const auto& [k, idx] : p.observations) {
+      ASSERT_TRUE(map.keyframe(k));
+      EXPECT_EQ(map.keyframe(k)->frame.points[idx], id);
+    }
+  }
+}
+
+TEST(Map, PointStatisticsFollowObservations) {
+  Map map;
+  const KeyframeId a = map.add_keyframe(make_keyframe(map, 5, {0, 0, 0})).id;
+  const MapPoint& p = map.add_point(map.keyframe(a)->frame.unproject_world(2), a, 2);
+  // Straight ahead at 2 m, level 0: max distance 2 m, min = max / scale of the last level.
+  EXPECT_NEAR(p.max_distance, (p.position).norm(), 1e-9);
+  EXPECT_NEAR(p.min_distance, p.max_distance / 1.44, 1e-6);
+  EXPECT_NEAR(p.normal.dot(p.position.normalized()), 1.0, 1e-12);
+  EXPECT_EQ(p.descriptor, map.keyframe(a)->frame.features.descriptors[2]);
+}
+
+}  // namespace
+}  // namespace coloc::slam::map

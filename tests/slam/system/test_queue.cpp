@@ -1,0 +1,53 @@
+#include <gtest/gtest.h>
+
+#include <thread>
+#include <vector>
+
+#include "slam/mapping/bounded_queue.hpp"
+
+namespace coloc::slam::mapping {
+namespace {
+
+TEST(BoundedQueue, KeepsOrderAndBlocksProducerWhenFull) {
+  BoundedQueue<int> queue(2);
+  std::vector<int> received;
+  std::thread consumer([&] {
+    while (auto v = queue.pop())
+      received.push_back(*v);
+  });
+  for (int i = 0; i < 100; ++i) {
+    ASSERT_TRUE(queue.push(i));
+    EXPECT_LE(queue.size(), 2u);  // never grows past its capacity
+  }
+  queue.close();
+  consumer.join();
+  ASSERT_EQ(received.size(), 100u);
+  for (int i = 0; i < 100; ++i)
+    EXPECT_EQ(received[static_cast<std::size_t>(i)], i);
+}
+
+TEST(BoundedQueue, CloseDrainsThenEndsAndRefusesPush) {
+  BoundedQueue<int> queue(4);
+  EXPECT_TRUE(queue.push(1));
+  EXPECT_TRUE(queue.push(2));
+  queue.close();
+  EXPECT_FALSE(queue.push(3));
+  EXPECT_EQ(queue.pop().value(), 1);
+  EXPECT_EQ(queue.pop().value(), 2);
+  EXPECT_FALSE(queue.pop().has_value());
+}
+
+TEST(BoundedQueue, CloseWakesABlockedConsumerAndProducer) {
+  BoundedQueue<int> empty(1);
+  std::thread consumer([&] { EXPECT_FALSE(empty.pop().has_value()); });
+  BoundedQueue<int> full(1);
+  ASSERT_TRUE(full.push(0));
+  std::thread producer([&] { EXPECT_FALSE(full.push(1)); });
+  empty.close();
+  full.close();
+  consumer.join();
+  producer.join();
+}
+
+}  // namespace
+}  // namespace coloc::slam::mapping
