@@ -40,6 +40,9 @@ Element prototype_element(const FieldSpec& spec) {
   }
   e.int_minimum = spec.minimum;
   e.int_maximum = spec.maximum;
+  // A prototype element's own value is never used, but libE57Format rejects one outside
+  // [minimum, maximum]; the default 0 may be.
+  e.int_value = std::clamp<std::int64_t>(0, spec.minimum, spec.maximum);
   e.scale = spec.scale;
   e.offset = spec.offset;
   e.single_precision = spec.single_precision;
@@ -118,6 +121,7 @@ void Writer::begin_scan(const Data3D& header, const std::vector<FieldSpec>& fiel
   if (closed_) throw error("writer is closed");
   if (scan_) throw error("begin_scan while another scan is open");
   const std::string where = "/data3D/" + std::to_string(data3d_.children.size());
+  if (fields.empty()) throw error("a scan needs at least one point field", where);
   std::uint32_t mask = 0;
   std::vector<Codec> codecs;
   for (const FieldSpec& f : fields) {

@@ -420,6 +420,8 @@ TEST(E57Writer, WrittenFileHasValidPagesHeaderAndXml) {
   EXPECT_STREQ(cx.attribute("minimum").value(), "-500000");
   EXPECT_STREQ(cx.attribute("maximum").value(), "500000");
   EXPECT_STREQ(points.child("codecs").attribute("type").value(), "Vector");
+  // Prototype values lie within their own bounds (libE57Format checks): rowIndex [0, 49] -> 0.
+  EXPECT_STREQ(points.child("prototype").child("cartesianX").text().get(), "0");
   // The compressed vector section header the XML points at.
   const std::uint64_t cv = points.attribute("fileOffset").as_ullong();
   EXPECT_EQ(raw[cv], 1);
@@ -454,12 +456,40 @@ TEST(E57Writer, RejectsBadInputWithClearErrors) {
   w.end_scan();
   EXPECT_THROW(w.begin_scan({}, {FieldSpec::float64(F::kCartesianX)}), Error);  // no Y/Z
   EXPECT_THROW(w.begin_scan({}, {FieldSpec::integer(F::kRowIndex, 5, 1)}), Error);
+  EXPECT_THROW(w.begin_scan({}, {}), Error);  // no fields
 }
 
 TEST(E57Writer, UnclosedWriterLeavesNoFile) {
   const auto dir = testing::temp_dir("e57_writer_unclosed");
   { Writer w(dir / "x.e57"); }
   EXPECT_FALSE(std::filesystem::exists(dir / "x.e57"));
+}
+
+}  // namespace
+}  // namespace coloc::e57
+
+namespace coloc::e57 {
+namespace {
+
+TEST(E57Writer, PrototypeValuesStayWithinTheirBounds) {
+  const auto path = testing::temp_dir("e57_proto") / "p.e57";
+  Writer w(path);
+  PointBuffer p;
+  p.reset(field_bit(PointField::kReturnCount) | field_bit(PointField::kColumnIndex), 3);
+  p.return_count = {1, 1, 1};
+  p.column_index = {-3, -4, -5};
+  w.write_scan({},
+               {FieldSpec::integer(PointField::kReturnCount, 1, 1),
+                FieldSpec::integer(PointField::kColumnIndex, -9, -2)},
+               p);
+  w.close();
+  Reader r(path);
+  const Element* proto = r.root().find("data3D")->children[0].find_path("points/prototype");
+  EXPECT_EQ(proto->find("returnCount")->int_value, 1);
+  EXPECT_EQ(proto->find("columnIndex")->int_value, -2);
+  const PointBuffer b = r.read_points(0);
+  EXPECT_EQ(b.column_index, (std::vector<std::int32_t>{-3, -4, -5}));
+  EXPECT_EQ(b.return_count, (std::vector<std::int32_t>{1, 1, 1}));
 }
 
 }  // namespace
