@@ -6,6 +6,7 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <string>
 
 #include "e57io/reader.hpp"
 #include "e57io/writer.hpp"
@@ -22,8 +23,8 @@ std::size_t bench_points() {
 }
 
 // A scan on a 1 mm grid with colour and intensity, written in 1 M-point pieces.
-std::filesystem::path synthetic_file(std::size_t n) {
-  const auto path = std::filesystem::temp_directory_path() / "coloc_bench_e57io.e57";
+std::filesystem::path synthetic_file(std::size_t n, const std::string& name) {
+  const auto path = std::filesystem::temp_directory_path() / name;
   coloc::e57::Writer w(path);
   w.begin_scan(
       {.name = "synthetic"},
@@ -58,7 +59,7 @@ std::filesystem::path synthetic_file(std::size_t n) {
 }
 
 const std::filesystem::path& file() {
-  static const std::filesystem::path path = synthetic_file(bench_points());
+  static const std::filesystem::path path = synthetic_file(bench_points(), "coloc_bench_e57io.e57");
   return path;
 }
 
