@@ -97,7 +97,7 @@ void BM_ReadAllFields(benchmark::State& s) {
 void BM_Write(benchmark::State& state) {
   const std::size_t n = 1'000'000;
   for (auto _ : state)
-    benchmark::DoNotOptimize(synthetic_file(n));
+    benchmark::DoNotOptimize(synthetic_file(n, "coloc_bench_e57io_write.e57"));
   state.counters["points/s"] =
       benchmark::Counter(static_cast<double>(n * state.iterations()), benchmark::Counter::kIsRate);
 }
