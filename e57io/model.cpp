@@ -76,6 +76,36 @@ void add_float(Element& e, const char* name, double v) {
   e.children.push_back(Element::make_float(name, v));
 }
 
+void read_bounds(const Element& scan, Data3D& d) {
+  if (const Element* b = child_of(scan, "cartesianBounds", ElementType::kStructure)) {
+    d.cartesian_bounds = CartesianBounds{get_number(*b, "xMinimum"), get_number(*b, "xMaximum"),
+                                         get_number(*b, "yMinimum"), get_number(*b, "yMaximum"),
+                                         get_number(*b, "zMinimum"), get_number(*b, "zMaximum")};
+  }
+  if (const Element* b = child_of(scan, "sphericalBounds", ElementType::kStructure)) {
+    d.spherical_bounds =
+        SphericalBounds{get_number(*b, "rangeMinimum"),     get_number(*b, "rangeMaximum"),
+                        get_number(*b, "elevationMinimum"), get_number(*b, "elevationMaximum"),
+                        get_number(*b, "azimuthStart"),     get_number(*b, "azimuthEnd")};
+  }
+  if (const Element* b = child_of(scan, "indexBounds", ElementType::kStructure)) {
+    d.index_bounds =
+        IndexBounds{get_integer(*b, "rowMinimum"),    get_integer(*b, "rowMaximum"),
+                    get_integer(*b, "columnMinimum"), get_integer(*b, "columnMaximum"),
+                    get_integer(*b, "returnMinimum"), get_integer(*b, "returnMaximum")};
+  }
+  if (const Element* b = child_of(scan, "intensityLimits", ElementType::kStructure)) {
+    d.intensity_limits =
+        IntensityLimits{get_number(*b, "intensityMinimum"), get_number(*b, "intensityMaximum")};
+  }
+  if (const Element* b = child_of(scan, "colorLimits", ElementType::kStructure)) {
+    d.color_limits =
+        ColorLimits{get_number(*b, "colorRedMinimum"),   get_number(*b, "colorRedMaximum"),
+                    get_number(*b, "colorGreenMinimum"), get_number(*b, "colorGreenMaximum"),
+                    get_number(*b, "colorBlueMinimum"),  get_number(*b, "colorBlueMaximum")};
+  }
+}
+
 }  // namespace
 
 const char* to_string(ImageRepresentation r) {
@@ -124,33 +154,7 @@ Data3D data3d_from_element(const Element& scan) {
   d.acquisition_start = get_datetime(scan, "acquisitionStart");
   d.acquisition_end = get_datetime(scan, "acquisitionEnd");
   d.pose = get_pose(scan, "pose");
-  if (const Element* b = child_of(scan, "cartesianBounds", ElementType::kStructure)) {
-    d.cartesian_bounds = CartesianBounds{get_number(*b, "xMinimum"), get_number(*b, "xMaximum"),
-                                         get_number(*b, "yMinimum"), get_number(*b, "yMaximum"),
-                                         get_number(*b, "zMinimum"), get_number(*b, "zMaximum")};
-  }
-  if (const Element* b = child_of(scan, "sphericalBounds", ElementType::kStructure)) {
-    d.spherical_bounds =
-        SphericalBounds{get_number(*b, "rangeMinimum"),     get_number(*b, "rangeMaximum"),
-                        get_number(*b, "elevationMinimum"), get_number(*b, "elevationMaximum"),
-                        get_number(*b, "azimuthStart"),     get_number(*b, "azimuthEnd")};
-  }
-  if (const Element* b = child_of(scan, "indexBounds", ElementType::kStructure)) {
-    d.index_bounds =
-        IndexBounds{get_integer(*b, "rowMinimum"),    get_integer(*b, "rowMaximum"),
-                    get_integer(*b, "columnMinimum"), get_integer(*b, "columnMaximum"),
-                    get_integer(*b, "returnMinimum"), get_integer(*b, "returnMaximum")};
-  }
-  if (const Element* b = child_of(scan, "intensityLimits", ElementType::kStructure)) {
-    d.intensity_limits =
-        IntensityLimits{get_number(*b, "intensityMinimum"), get_number(*b, "intensityMaximum")};
-  }
-  if (const Element* b = child_of(scan, "colorLimits", ElementType::kStructure)) {
-    d.color_limits =
-        ColorLimits{get_number(*b, "colorRedMinimum"),   get_number(*b, "colorRedMaximum"),
-                    get_number(*b, "colorGreenMinimum"), get_number(*b, "colorGreenMaximum"),
-                    get_number(*b, "colorBlueMinimum"),  get_number(*b, "colorBlueMaximum")};
-  }
+  read_bounds(scan, d);
   if (const Element* g = child_of(scan, "originalGuids", ElementType::kVector)) {
     for (const Element& c : g->children) {
       if (c.type == ElementType::kString) d.original_guids.push_back(c.string_value);

@@ -12,6 +12,7 @@
 
 #include "e57io/crc32c.hpp"
 #include "e57io/paged_file.hpp"
+#include "e57io/point_access.hpp"
 #include "e57io/reader.hpp"
 #include "e57io/writer.hpp"
 #include "tests/testing/data.hpp"
@@ -27,11 +28,13 @@ struct Sample {
   PointBuffer points;
 };
 
+void fill_points(std::mt19937_64& rng, Sample& s, std::size_t n);
+
 Sample random_sample(std::mt19937_64& rng, std::size_t n) {
   auto coin = [&] { return (rng() & 1) != 0; };
   auto pick = [&](int k) { return static_cast<int>(rng() % static_cast<unsigned>(k)); };
   Sample s;
-  if (coin() || true) {
+  {  // cartesian coordinates always, so a scan is never without fields
     const int enc = pick(3);
     for (F f : {F::kCartesianX, F::kCartesianY, F::kCartesianZ}) {
       s.specs.push_back(enc == 0   ? FieldSpec::scaled(f, 1e-3, -100, 100)
@@ -71,6 +74,12 @@ Sample random_sample(std::mt19937_64& rng, std::size_t n) {
                              : FieldSpec::scaled(F::kTimeStamp, 1e-6, 0, 5000));
     s.specs.push_back(FieldSpec::integer(F::kIsTimeStampInvalid, 0, 1));
   }
+  fill_points(rng, s, n);
+  return s;
+}
+
+// Random values within each field's range (integral for Integer, on the grid for Scaled).
+void fill_points(std::mt19937_64& rng, Sample& s, std::size_t n) {
   std::uint32_t mask = 0;
   for (const auto& spec : s.specs)
     mask |= field_bit(spec.field);
@@ -78,72 +87,17 @@ Sample random_sample(std::mt19937_64& rng, std::size_t n) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   for (std::size_t i = 0; i < n; ++i) {
     for (const FieldSpec& spec : s.specs) {
-      const double lo = spec.kind == FieldKind::kFloat ? -50.0 : static_cast<double>(spec.minimum);
-      const double hi = spec.kind == FieldKind::kFloat ? 50.0 : static_cast<double>(spec.maximum);
+      const bool flt = spec.kind == FieldKind::kFloat;
+      const double lo = flt ? -50.0 : static_cast<double>(spec.minimum);
+      const double hi = flt ? 50.0 : static_cast<double>(spec.maximum);
       double v = spec.kind == FieldKind::kInteger ? std::round(lo + u(rng) * (hi - lo))
                                                   : lo + u(rng) * (hi - lo);
       if (spec.kind == FieldKind::kScaledInteger) v = v * spec.scale + spec.offset;
-      switch (spec.field) {
-        case F::kCartesianX:
-          s.points.cartesian_x[i] = v;
-          break;
-        case F::kCartesianY:
-          s.points.cartesian_y[i] = v;
-          break;
-        case F::kCartesianZ:
-          s.points.cartesian_z[i] = v;
-          break;
-        case F::kCartesianInvalidState:
-          s.points.cartesian_invalid_state[i] = static_cast<std::int8_t>(v);
-          break;
-        case F::kSphericalRange:
-          s.points.spherical_range[i] = v;
-          break;
-        case F::kSphericalAzimuth:
-          s.points.spherical_azimuth[i] = v;
-          break;
-        case F::kSphericalElevation:
-          s.points.spherical_elevation[i] = v;
-          break;
-        case F::kIntensity:
-          s.points.intensity[i] = static_cast<float>(v);
-          break;
-        case F::kIsIntensityInvalid:
-          s.points.is_intensity_invalid[i] = static_cast<std::int8_t>(v);
-          break;
-        case F::kColorRed:
-          s.points.color_red[i] = static_cast<float>(v);
-          break;
-        case F::kColorGreen:
-          s.points.color_green[i] = static_cast<float>(v);
-          break;
-        case F::kColorBlue:
-          s.points.color_blue[i] = static_cast<float>(v);
-          break;
-        case F::kRowIndex:
-          s.points.row_index[i] = static_cast<std::int32_t>(v);
-          break;
-        case F::kColumnIndex:
-          s.points.column_index[i] = static_cast<std::int32_t>(v);
-          break;
-        case F::kReturnIndex:
-          s.points.return_index[i] = static_cast<std::int32_t>(v);
-          break;
-        case F::kReturnCount:
-          s.points.return_count[i] = static_cast<std::int32_t>(v);
-          break;
-        case F::kTimeStamp:
-          s.points.time_stamp[i] = v;
-          break;
-        case F::kIsTimeStampInvalid:
-          s.points.is_time_stamp_invalid[i] = static_cast<std::int8_t>(v);
-          break;
-        default:
-          break;
-      }
+      with_vector(s.points, spec.field, [&](auto& vec) {
+        vec[i] = static_cast<typename std::decay_t<decltype(vec)>::value_type>(v);
+      });
     }
   }
-  return s;
 }
 
 // The value the reader must return for a written double `v` under `spec`.
