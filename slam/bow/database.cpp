@@ -79,6 +79,7 @@ std::vector<QueryResult> BowDatabase::query(const BowVector& bow,
   // score_l1), in the query's word order so results do not depend on hash order.
   struct Accumulator {
     std::uint32_t common = 0;
+    bool rejected = false;  // by options.accept, asked once per image
     double sum = 0.0;
   };
   std::vector<Accumulator> acc(key_of_.size());
@@ -88,8 +89,12 @@ std::vector<QueryResult> BowDatabase::query(const BowVector& bow,
     if (it == inverse_.end()) continue;
     for (const Posting& p : it->second) {
       Accumulator& a = acc[p.slot];
+      if (a.rejected) continue;
       if (a.common == 0) {
-        if (options.accept && !options.accept(key_of_[p.slot])) continue;
+        if (options.accept && !options.accept(key_of_[p.slot])) {
+          a.rejected = true;
+          continue;
+        }
         touched.push_back(p.slot);
       }
       ++a.common;

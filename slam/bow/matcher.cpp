@@ -84,6 +84,14 @@ std::vector<FeatureMatch> match_by_bow(const features::OrbFeatures& a, const Fea
       ++ib;
       continue;
     }
+    const bool valid = std::all_of(ia->features.begin(), ia->features.end(),
+                                   [&](std::uint32_t i) { return i < a.size(); }) &&
+                       std::all_of(ib->features.begin(), ib->features.end(),
+                                   [&](std::uint32_t j) { return j < b.size(); });
+    if (!valid) {
+      throw Error("BoW matching: a direct index refers to a feature the image does not have",
+                  {.field = "features"});
+    }
     for (std::uint32_t i : ia->features) {
       int best = 257;
       int second = 257;

@@ -70,8 +70,9 @@ class Vocabulary {
   WordId word_of(const Descriptor& descriptor) const;
   // TF-IDF vector of an image's descriptors.
   BowVector transform(const std::vector<Descriptor>& descriptors) const;
-  // Same, plus the direct index at `direct_level` below the root (clamped to [1, depth]);
-  // ORB-SLAM uses 4 levels above the leaves of its 6-level tree, i.e. level 2.
+  // Same, plus the direct index at `direct_level` below the root (clamped to [1, depth]; 0 or
+  // less leaves `features` empty). ORB-SLAM uses 4 levels above the leaves of its 6-level tree,
+  // i.e. level 2, which is also what suits our 5-level vocabulary (about 100 nodes).
   void transform(const std::vector<Descriptor>& descriptors, BowVector& bow,
                  FeatureVector& features, int direct_level = 2) const;
 
