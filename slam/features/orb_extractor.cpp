@@ -86,6 +86,23 @@ void OrbExtractor::build_pyramid(const cv::Mat& grey) {
 
 namespace {
 
+// Cells split [lo, hi) at the integer edges lo + (i * (hi - lo)) / n, i = 0..n.
+int cell_edge(int i, int lo, int hi, int n) {
+  return lo + (i * (hi - lo)) / n;
+}
+
+// The cell holding integer v: the exact inverse of cell_edge (the first guess can be one off).
+int cell_of(int v, int lo, int hi, int n) {
+  int c = std::min(n - 1, ((v - lo) * n) / (hi - lo));
+  while (c + 1 < n && v >= cell_edge(c + 1, lo, hi, n)) {
+    ++c;
+  }
+  while (c > 0 && v < cell_edge(c, lo, hi, n)) {
+    --c;
+  }
+  return c;
+}
+
 float intensity_centroid_angle(const cv::Mat& image, int x, int y, const std::vector<int>& umax) {
   const int r = OrbExtractor::kOrientationRadius;
   const auto step = static_cast<std::ptrdiff_t>(image.step1());
@@ -132,8 +149,8 @@ void OrbExtractor::detect_level(int level, std::vector<Keypoint>& out) {
   const float height = static_cast<float>(max_y - min_y);
   const int cols = std::max(1, static_cast<int>(std::lround(width / kCellSize)));
   const int rows = std::max(1, static_cast<int>(std::lround(height / kCellSize)));
-  auto cell_edge_x = [&](int c) { return min_x + (c * (max_x - min_x)) / cols; };
-  auto cell_edge_y = [&](int r) { return min_y + (r * (max_y - min_y)) / rows; };
+  auto cell_edge_x = [&](int c) { return cell_edge(c, min_x, max_x, cols); };
+  auto cell_edge_y = [&](int r) { return cell_edge(r, min_y, max_y, rows); };
 
   std::vector<cv::KeyPoint> corners;
   const cv::Rect roi(min_x - 3, min_y - 3, max_x - min_x + 6, max_y - min_y + 6);
@@ -145,17 +162,8 @@ void OrbExtractor::detect_level(int level, std::vector<Keypoint>& out) {
     const int x = static_cast<int>(k.pt.x) + roi.x;
     const int y = static_cast<int>(k.pt.y) + roi.y;
     candidates.push_back({static_cast<float>(x), static_cast<float>(y), k.response});
-    // Cell edges are integers, so this inverse of cell_edge_x/y is exact.
-    int c = std::min(cols - 1, ((x - min_x) * cols) / (max_x - min_x));
-    while (c + 1 < cols && x >= cell_edge_x(c + 1))
-      ++c;
-    while (c > 0 && x < cell_edge_x(c))
-      --c;
-    int r = std::min(rows - 1, ((y - min_y) * rows) / (max_y - min_y));
-    while (r + 1 < rows && y >= cell_edge_y(r + 1))
-      ++r;
-    while (r > 0 && y < cell_edge_y(r))
-      --r;
+    const int c = cell_of(x, min_x, max_x, cols);
+    const int r = cell_of(y, min_y, max_y, rows);
     occupied[static_cast<std::size_t>(r * cols + c)] = 1;
   }
   for (int r = 0; r < rows; ++r) {
