@@ -13,5 +13,6 @@ void add_demo_verb(CLI::App& app);
 void add_handeye_verb(CLI::App& app, CLI::App& bench);
 void add_fuse_verb(CLI::App& app, CLI::App& bench);
 void add_vocab_verb(CLI::App& app, CLI::App& bench);
+void add_twin_verb(CLI::App& app, CLI::App& bench);
 
 }  // namespace coloc::cli
