@@ -20,7 +20,8 @@ cv::Mat load_frame() {
   const fs::path dir = coloc::testing::shared_data("tum_fr1_xyz_37f/rgb");
   if (dir.empty()) return {};
   std::vector<fs::path> files;
-  for (const auto& e : fs::directory_iterator(dir)) files.push_back(e.path());
+  for (const auto& e : fs::directory_iterator(dir))
+    files.push_back(e.path());
   std::sort(files.begin(), files.end());
   return cv::imread(files.front().string(), cv::IMREAD_GRAYSCALE);
 }
