@@ -117,7 +117,7 @@ void CompressedVectorWriter::write_packet(const std::vector<std::size_t>& take) 
   std::size_t pos = header;
   for (std::size_t k = 0; k < streams_.size(); ++k) {
     store_le<std::uint16_t>(p + 6 + 2 * k, static_cast<std::uint16_t>(take[k]));
-    std::memcpy(p + pos, streams_[k].bytes.data(), take[k]);
+    if (take[k] > 0) std::memcpy(p + pos, streams_[k].bytes.data(), take[k]);
     streams_[k].bytes.erase(streams_[k].bytes.begin(),
                             streams_[k].bytes.begin() + static_cast<std::ptrdiff_t>(take[k]));
     pos += take[k];
