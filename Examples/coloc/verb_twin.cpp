@@ -29,6 +29,8 @@ struct TwinArgs {
   bool no_scan = false;
   bool motion_blur = false;
   bool json = false;
+  int dictionary = 0;
+  double marker_size = 0.1675;
 };
 
 void run_generate(const TwinArgs& a) {
@@ -39,6 +41,8 @@ void run_generate(const TwinArgs& a) {
   o.motion_blur = a.motion_blur;
   o.write_scan = !a.no_scan;
   o.quiet = a.json;
+  o.dictionary = a.dictionary;
+  o.marker_size = a.marker_size;
   if (a.face_size > 0) o.scan.face_size = a.face_size;
   if (a.point_step > 0) o.scan.point_step = a.point_step;
   const twin::GenerateSummary s = twin::generate_twin(o, a.out);
@@ -172,6 +176,11 @@ void add_twin_verb(CLI::App& app, CLI::App& bench) {
   gen->add_option("--face-size", args->face_size, "Scan cube-face size in pixels (default 2048)");
   gen->add_option("--point-step", args->point_step, "One scan point every N face pixels");
   gen->add_option("--supersample", args->supersample, "Odd colour supersampling factor")
+      ->capture_default_str();
+  gen->add_option("--dictionary", args->dictionary,
+                  "ArUco dictionary: OpenCV predefined id (0 = DICT_4X4_50, 10 = DICT_6X6_250)")
+      ->capture_default_str();
+  gen->add_option("--marker-size", args->marker_size, "Marker black-square edge (m)")
       ->capture_default_str();
   gen->add_flag("--no-scan", args->no_scan, "Skip the laser scan");
   gen->add_flag("--motion-blur", args->motion_blur, "Average 3 renders over the exposure");

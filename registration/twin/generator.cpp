@@ -27,7 +27,7 @@ std::string stamp(double t) {
 }
 
 void write_png(const fs::path& path, const cv::Mat& image) {
-  if (!cv::imwrite(path.string(), image, {cv::IMWRITE_PNG_COMPRESSION, 3})) {
+  if (!cv::imwrite(path.string(), image, {cv::IMWRITE_PNG_COMPRESSION, 1})) {
     throw Error("cannot write image", {.file = path.string()});
   }
 }
