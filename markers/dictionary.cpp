@@ -96,6 +96,15 @@ std::vector<std::string> dictionary_names() {
 
 cv::Ptr<cv::aruco::Dictionary> make_dictionary(const std::string& name_or_path) {
   if (looks_like_file(name_or_path)) return read_custom_dictionary(name_or_path);
+  // OpenCV's numeric ids (cv::aruco::PREDEFINED_DICTIONARY_NAME), as the twin's files write them.
+  if (!name_or_path.empty() && name_or_path.size() <= 2 &&
+      std::all_of(name_or_path.begin(), name_or_path.end(),
+                  [](unsigned char c) { return std::isdigit(c) != 0; })) {
+    const std::size_t index = std::stoul(name_or_path);
+    if (index < kDictionaries.size()) {
+      return cv::aruco::getPredefinedDictionary(kDictionaries[index].second);
+    }
+  }
   std::string wanted = upper(name_or_path);
   if (wanted.rfind("DICT_", 0) != 0) wanted = "DICT_" + wanted;
   for (const auto& [name, id] : kDictionaries) {

@@ -1,7 +1,8 @@
 #pragma once
 // ArUco / AprilTag dictionaries by name. The names are OpenCV's (`DICT_6X6_250`,
 // `DICT_APRILTAG_36h11`, ...), matched case-insensitively and with or without the `DICT_` prefix;
-// a path to a YAML file in OpenCV's dictionary format (`nmarkers`, `markersize`, `marker_N`: bit
+// OpenCV's numeric id ("0" = DICT_4X4_50 ... "20" = DICT_APRILTAG_36h11) is accepted too; a path
+// to a YAML file in OpenCV's dictionary format (`nmarkers`, `markersize`, `marker_N`: bit
 // strings, as aruco's tutorial_dict.yml) loads a custom dictionary.
 
 #include <opencv2/aruco/dictionary.hpp>
