@@ -7,6 +7,8 @@
 #include "registration/twin/generator.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/trajectory.hpp"
+#include "slam/dataset/sequence.hpp"
+#include "slam/eval/trajectory_error.hpp"
 #include "tests/testing/data.hpp"
 #if COLOC_TWIN_E57
 #include "e57io/reader.hpp"
@@ -107,6 +109,26 @@ TEST_F(TwinGenerator, TumLayoutIsCompleteAndReadable) {
   EXPECT_NE(settings.find("RGBD.DepthMapFactor: 1000.0"), std::string::npos);
   EXPECT_NE(settings.find("IMU.T_b_c1"), std::string::npos);
   EXPECT_EQ(data_lines(*dir_a_ / "groundtruth" / "markers.txt").size(), s.markers);
+}
+
+TEST_F(TwinGenerator, FoundationReadersLoadTheSequence) {
+  dataset::SequenceOptions so;
+  so.depth_scale = 1000.0;  // the twin writes millimetres, as the RealSense does
+  const auto seq = dataset::open_tum(*dir_a_ / "sequence", so);
+  ASSERT_EQ(seq->size(), summary_->frames);
+  const dataset::Frame f = seq->frame(5);
+  EXPECT_EQ(f.color.cols, 320);
+  ASSERT_EQ(f.depth.type(), CV_32FC1);
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(f.depth, &lo, &hi);
+  EXPECT_GT(hi, 0.4);
+  EXPECT_LT(hi, 6.1);  // the D455 model's range limit
+  ASSERT_EQ(seq->ground_truth().size(), summary_->frames);
+  // The first second starts at rest (nearly collinear positions): compare without alignment.
+  eval::AteOptions ao;
+  ao.alignment = eval::Alignment::None;
+  const eval::AteResult ate = eval::compute_ate(seq->ground_truth(), seq->ground_truth(), ao);
+  EXPECT_LT(ate.translation.rmse, 1e-9);
 }
 
 TEST_F(TwinGenerator, SameSeedGivesByteIdenticalOutput) {
