@@ -14,5 +14,6 @@ void add_handeye_verb(CLI::App& app, CLI::App& bench);
 void add_fuse_verb(CLI::App& app, CLI::App& bench);
 void add_vocab_verb(CLI::App& app, CLI::App& bench);
 void add_twin_verb(CLI::App& app, CLI::App& bench);
+void add_markers_verb(CLI::App& app, CLI::App& bench);
 
 }  // namespace coloc::cli
