@@ -1,5 +1,6 @@
 #include "registration/twin/sensor_noise.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -15,6 +16,9 @@ void DepthNoiseOptions::check() const {
   if (!(baseline > 0.0)) throw Error("baseline must be > 0", {.field = "baseline"});
   if (disparity_sigma < 0.0)
     throw Error("disparity_sigma must be >= 0", {.field = "disparity_sigma"});
+  if (blob_dropout < 0.0 || blob_dropout > 0.5) {
+    throw Error("blob_dropout must be in [0, 0.5]", {.field = "blob_dropout"});
+  }
   if (correlated_fraction < 0.0 || correlated_fraction > 1.0) {
     throw Error("correlated_fraction must be in [0, 1]", {.field = "correlated_fraction"});
   }
@@ -47,6 +51,22 @@ cv::Mat apply_depth_noise(const cv::Mat& depth, double focal, const DepthNoiseOp
 
   cv::Mat out(h, w, CV_16U, cv::Scalar(0));
   cv::Mat invalid(h, w, CV_8U, cv::Scalar(0));
+  if (o.blob_dropout > 0.0) {
+    // Blobs: the top `blob_dropout` quantile of a smooth random field (1/16 resolution).
+    cv::Mat blob_coarse(h / 16 + 2, w / 16 + 2, CV_32F);
+    for (int r = 0; r < blob_coarse.rows; ++r) {
+      for (int c = 0; c < blob_coarse.cols; ++c)
+        blob_coarse.at<float>(r, c) = n01(rng);
+    }
+    cv::Mat blob;
+    cv::resize(blob_coarse, blob, cv::Size(blob_coarse.cols * 16, blob_coarse.rows * 16), 0, 0,
+               cv::INTER_CUBIC);
+    blob = blob(cv::Rect(0, 0, w, h)).clone();
+    std::vector<float> values(blob.begin<float>(), blob.end<float>());
+    const auto q = static_cast<std::size_t>((1.0 - o.blob_dropout) * (values.size() - 1));
+    std::nth_element(values.begin(), values.begin() + static_cast<long>(q), values.end());
+    invalid.setTo(1, blob > values[q]);
+  }
   for (int v = 0; v < h; ++v) {
     const float* row = depth.ptr<float>(v);
     for (int u = 0; u < w; ++u) {

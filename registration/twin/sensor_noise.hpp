@@ -17,6 +17,7 @@ struct DepthNoiseOptions {
   double edge_jump = 0.04;           // relative depth jump that counts as an edge
   double edge_dropout = 0.5;         // probability that a pixel at an edge is invalid
   double random_dropout = 0.002;     // probability of an isolated invalid pixel
+  double blob_dropout = 0.015;       // fraction of the image lost in smooth blobs (IR-dark spots)
   bool shadow = true;                // invalidate the occlusion shadow left of near objects
 
   void check() const;

@@ -119,6 +119,7 @@ TEST(TwinSensorNoise, DepthNoiseGrowsWithTheSquareOfDepth) {
 TEST(TwinSensorNoise, RangeLimitsEdgesAndOcclusionShadow) {
   DepthNoiseOptions o;
   o.random_dropout = 0.0;
+  o.blob_dropout = 0.0;
   const double f = 386.0;
   // Far left half (3 m), near right half (1 m): the shadow lies left of the near object.
   cv::Mat depth(100, 320, CV_32F, cv::Scalar(3.0));
@@ -135,6 +136,11 @@ TEST(TwinSensorNoise, RangeLimitsEdgesAndOcclusionShadow) {
   EXPECT_EQ(cv::countNonZero(far), 0);
   const cv::Mat near = apply_depth_noise(cv::Mat(10, 10, CV_32F, cv::Scalar(0.2)), f, o, 1);
   EXPECT_EQ(cv::countNonZero(near), 0);
+  // Blob dropouts remove the requested fraction of a flat view.
+  DepthNoiseOptions blobs;
+  blobs.random_dropout = 0.0;
+  const cv::Mat flat = apply_depth_noise(cv::Mat(240, 320, CV_32F, cv::Scalar(2.0)), f, blobs, 3);
+  EXPECT_NEAR(1.0 - cv::countNonZero(flat) / 76800.0, blobs.blob_dropout, 0.003);
   DepthNoiseOptions bad;
   bad.max_range = -1;
   EXPECT_THROW(apply_depth_noise(depth, f, bad, 1), Error);
