@@ -24,49 +24,43 @@ void DepthNoiseOptions::check() const {
   }
 }
 
-cv::Mat apply_depth_noise(const cv::Mat& depth, double focal, const DepthNoiseOptions& o,
-                          std::uint64_t seed) {
-  o.check();
-  CV_Assert(depth.type() == CV_32F);
-  std::mt19937_64 rng(seed);
+namespace {
+
+using Rng = std::mt19937_64;
+
+// A smooth random field of unit variance over w x h pixels: independent normals every `cell`
+// pixels, interpolated (stereo matching windows make D4xx noise spatially correlated).
+cv::Mat smooth_field(Rng& rng, int w, int h, int cell, int interpolation) {
   std::normal_distribution<float> n01(0.0f, 1.0f);
-  std::uniform_real_distribution<double> uni(0.0, 1.0);
-  const int w = depth.cols, h = depth.rows;
-  // Smooth part of the noise: a coarse unit-variance field, bilinearly upsampled (stereo
-  // matching windows make D4xx noise spatially correlated).
-  cv::Mat coarse(h / 8 + 2, w / 8 + 2, CV_32F);
+  cv::Mat coarse(h / cell + 2, w / cell + 2, CV_32F);
   for (int r = 0; r < coarse.rows; ++r) {
     for (int c = 0; c < coarse.cols; ++c)
       coarse.at<float>(r, c) = n01(rng);
   }
-  cv::Mat smooth;
-  cv::resize(coarse, smooth, cv::Size(coarse.cols * 8, coarse.rows * 8), 0, 0, cv::INTER_LINEAR);
-  // Interpolation lowers the variance (to ~4/9); bring the field back to unit variance.
+  cv::Mat big;
+  cv::resize(coarse, big, cv::Size(coarse.cols * cell, coarse.rows * cell), 0, 0, interpolation);
+  cv::Mat field = big(cv::Rect(0, 0, w, h)).clone();
+  // Interpolation lowers the variance (bilinear: to ~4/9); bring it back to one.
   cv::Scalar mean, stddev;
-  cv::meanStdDev(smooth, mean, stddev);
-  smooth = (smooth - mean[0]) / std::max(1e-6, stddev[0]);
-  const double k = o.disparity_sigma / (focal * o.baseline);
-  const float wc = static_cast<float>(std::sqrt(o.correlated_fraction));
-  const float wi = static_cast<float>(std::sqrt(1.0 - o.correlated_fraction));
+  cv::meanStdDev(field, mean, stddev);
+  return (field - mean[0]) / std::max(1e-6, stddev[0]);
+}
 
-  cv::Mat out(h, w, CV_16U, cv::Scalar(0));
-  cv::Mat invalid(h, w, CV_8U, cv::Scalar(0));
-  if (o.blob_dropout > 0.0) {
-    // Blobs: the top `blob_dropout` quantile of a smooth random field (1/16 resolution).
-    cv::Mat blob_coarse(h / 16 + 2, w / 16 + 2, CV_32F);
-    for (int r = 0; r < blob_coarse.rows; ++r) {
-      for (int c = 0; c < blob_coarse.cols; ++c)
-        blob_coarse.at<float>(r, c) = n01(rng);
-    }
-    cv::Mat blob;
-    cv::resize(blob_coarse, blob, cv::Size(blob_coarse.cols * 16, blob_coarse.rows * 16), 0, 0,
-               cv::INTER_CUBIC);
-    blob = blob(cv::Rect(0, 0, w, h)).clone();
-    std::vector<float> values(blob.begin<float>(), blob.end<float>());
-    const auto q = static_cast<std::size_t>((1.0 - o.blob_dropout) * (values.size() - 1));
-    std::nth_element(values.begin(), values.begin() + static_cast<long>(q), values.end());
-    invalid.setTo(1, blob > values[q]);
-  }
+// Marks the top `fraction` quantile of a smooth field: blob-shaped holes.
+void mark_blobs(Rng& rng, double fraction, cv::Mat& invalid) {
+  const cv::Mat blob = smooth_field(rng, invalid.cols, invalid.rows, 16, cv::INTER_CUBIC);
+  std::vector<float> values(blob.begin<float>(), blob.end<float>());
+  const auto q =
+      static_cast<std::size_t>((1.0 - fraction) * static_cast<double>(values.size() - 1));
+  std::nth_element(values.begin(), values.begin() + static_cast<long>(q), values.end());
+  invalid.setTo(1, blob > values[q]);
+}
+
+// Range limits, edge dropouts, isolated dropouts and the occlusion shadow.
+void mark_invalid(const cv::Mat& depth, double focal, const DepthNoiseOptions& o, Rng& rng,
+                  cv::Mat& invalid) {
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  const int w = depth.cols, h = depth.rows;
   for (int v = 0; v < h; ++v) {
     const float* row = depth.ptr<float>(v);
     for (int u = 0; u < w; ++u) {
@@ -91,14 +85,34 @@ cv::Mat apply_depth_noise(const cv::Mat& depth, double focal, const DepthNoiseOp
       if (o.shadow && u > 0) {
         const float zl = row[u - 1];
         if (zl > z * (1.0f + static_cast<float>(o.edge_jump))) {
-          const double band = focal * o.baseline * (1.0 / z - 1.0 / zl);
-          const int n = static_cast<int>(std::lround(band));
+          const int n = static_cast<int>(std::lround(focal * o.baseline * (1.0 / z - 1.0 / zl)));
           for (int b = 1; b <= n && u - b >= 0; ++b)
             invalid.at<std::uint8_t>(v, u - b) = 1;
         }
       }
     }
   }
+}
+
+}  // namespace
+
+cv::Mat apply_depth_noise(const cv::Mat& depth, double focal, const DepthNoiseOptions& o,
+                          std::uint64_t seed) {
+  o.check();
+  if (depth.type() != CV_32F) throw Error("depth must be CV_32F metres", {.field = "depth"});
+  Rng rng(seed);
+  std::normal_distribution<float> n01(0.0f, 1.0f);
+  const int w = depth.cols, h = depth.rows;
+  const cv::Mat smooth = smooth_field(rng, w, h, 8, cv::INTER_LINEAR);
+  cv::Mat invalid(h, w, CV_8U, cv::Scalar(0));
+  if (o.blob_dropout > 0.0) mark_blobs(rng, o.blob_dropout, invalid);
+  mark_invalid(depth, focal, o, rng, invalid);
+
+  // Stereo depth error: sigma_z = z^2 * sigma_disparity / (f * b).
+  const double k = o.disparity_sigma / (focal * o.baseline);
+  const float wc = static_cast<float>(std::sqrt(o.correlated_fraction));
+  const float wi = static_cast<float>(std::sqrt(1.0 - o.correlated_fraction));
+  cv::Mat out(h, w, CV_16U, cv::Scalar(0));
   for (int v = 0; v < h; ++v) {
     const float* row = depth.ptr<float>(v);
     for (int u = 0; u < w; ++u) {
