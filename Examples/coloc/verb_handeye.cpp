@@ -53,7 +53,7 @@ std::string matrix_json(const SE3& pose) {
 }
 
 void print_pose(const char* name, const SE3& pose) {
-  const Eigen::Vector3d t = pose.translation();
+  const Eigen::Vector3d& t = pose.translation();
   const Eigen::Vector3d w = pose.so3().log();
   std::printf("%s: t = [%.5f %.5f %.5f] m, rotation vector = [%.5f %.5f %.5f] rad (%.3f deg)\n",
               name, t.x(), t.y(), t.z(), w.x(), w.y(), w.z(), w.norm() * kDeg);

@@ -108,23 +108,63 @@ NoiseModel noise_from_residuals(std::span<const Registration> registrations,
   return m;
 }
 
-RefineResult refine(std::span<const Registration> registrations, const std::vector<bool>& used,
-                    const SE3& device_from_marker, const SE3& vr_from_camera, double sigma,
-                    const Options& options) {
-  Eigen::Quaterniond q_x = device_from_marker.quaternion();
-  Eigen::Vector3d t_x = device_from_marker.translation();
-  Eigen::Quaterniond q_y = vr_from_camera.quaternion();
-  Eigen::Vector3d t_y = vr_from_camera.translation();
-  double s = sigma;
+namespace {
 
-  const NoiseModel& noise = options.noise;
-  const double lever = t_x.norm();  // device rotation noise moves the marker by this arm
+// The parameter blocks Ceres optimizes in place.
+struct Parameters {
+  Eigen::Quaterniond q_x;  // device_from_marker
+  Eigen::Vector3d t_x;
+  Eigen::Quaterniond q_y;  // vr_from_camera
+  Eigen::Vector3d t_y;
+  double sigma = 1.0;
+};
+
+ceres::CostFunction* make_cost(const Registration& r, const NoiseModel& noise, double lever) {
   const double rotation_sigma = std::hypot(noise.device_rotation, noise.marker_rotation);
+  // Device rotation noise moves the marker by the lever arm |t_X|.
   const double translation_sigma =
       std::sqrt(noise.device_translation * noise.device_translation +
                 noise.marker_translation * noise.marker_translation +
                 noise.device_rotation * noise.device_rotation * lever * lever);
+  // Lateral and depth standard deviations; whitening W = P_lat / s_lat + P_ray / s_depth.
+  const Eigen::Vector3d ray = r.camera_from_marker.translation().normalized();
+  const Eigen::Matrix3d along = ray * ray.transpose();
+  const double depth_sigma = std::hypot(translation_sigma, noise.marker_depth);
+  const Eigen::Matrix3d whitening =
+      (Eigen::Matrix3d::Identity() - along) / translation_sigma + along / depth_sigma;
+  return new ceres::AutoDiffCostFunction<RegistrationCost, 6, 4, 3, 4, 3, 1>(
+      new RegistrationCost{r.vr_from_device.quaternion(), r.vr_from_device.translation(),
+                           r.camera_from_marker.quaternion(), r.camera_from_marker.translation(),
+                           1.0 / rotation_sigma, whitening});
+}
 
+void compute_covariance(ceres::Problem& problem, Parameters& p, bool with_scale,
+                        RefineResult& result) {
+  ceres::Covariance::Options covariance_options;
+  covariance_options.algorithm_type = ceres::DENSE_SVD;
+  covariance_options.num_threads = 1;
+  ceres::Covariance covariance(covariance_options);
+  double* q = p.q_x.coeffs().data();
+  std::vector<std::pair<const double*, const double*>> blocks = {
+      {p.t_x.data(), p.t_x.data()}, {q, q}, {p.t_x.data(), q}};
+  if (with_scale) blocks.emplace_back(&p.sigma, &p.sigma);
+  if (!covariance.Compute(blocks, &problem)) return;
+  bool ok = false;
+  const Matrix6d c = assemble_covariance(covariance, q, p.t_x.data(), ok);
+  if (ok) result.device_from_marker_covariance = result.variance_factor * c;
+  double sigma_variance = 0.0;
+  if (with_scale && covariance.GetCovarianceBlock(&p.sigma, &p.sigma, &sigma_variance)) {
+    result.sigma_variance = result.variance_factor * sigma_variance;
+  }
+}
+
+}  // namespace
+
+RefineResult refine(std::span<const Registration> registrations, const std::vector<bool>& used,
+                    const SE3& device_from_marker, const SE3& vr_from_camera, double sigma,
+                    const Options& options) {
+  Parameters p{device_from_marker.quaternion(), device_from_marker.translation(),
+               vr_from_camera.quaternion(), vr_from_camera.translation(), sigma};
   ceres::Problem::Options problem_options;
   problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -135,67 +175,34 @@ RefineResult refine(std::span<const Registration> registrations, const std::vect
   int residual_blocks = 0;
   for (std::size_t k = 0; k < registrations.size(); ++k) {
     if (!used[k]) continue;
-    const Registration& r = registrations[k];
-    // Lateral and depth standard deviations; whitening W = P_lat / s_lat + P_ray / s_depth.
-    const Eigen::Vector3d ray = r.camera_from_marker.translation().normalized();
-    const Eigen::Matrix3d along = ray * ray.transpose();
-    const double depth_sigma = std::hypot(translation_sigma, noise.marker_depth);
-    const Eigen::Matrix3d whitening =
-        (Eigen::Matrix3d::Identity() - along) / translation_sigma + along / depth_sigma;
-    auto* cost = new ceres::AutoDiffCostFunction<RegistrationCost, 6, 4, 3, 4, 3, 1>(
-        new RegistrationCost{r.vr_from_device.quaternion(), r.vr_from_device.translation(),
-                             r.camera_from_marker.quaternion(), r.camera_from_marker.translation(),
-                             1.0 / rotation_sigma, whitening});
-    problem.AddResidualBlock(cost, loss, q_x.coeffs().data(), t_x.data(), q_y.coeffs().data(),
-                             t_y.data(), &s);
+    problem.AddResidualBlock(make_cost(registrations[k], options.noise, p.t_x.norm()), loss,
+                             p.q_x.coeffs().data(), p.t_x.data(), p.q_y.coeffs().data(),
+                             p.t_y.data(), &p.sigma);
     ++residual_blocks;
   }
-  RefineResult result;
-  result.device_from_marker = device_from_marker;
-  result.vr_from_camera = vr_from_camera;
-  result.sigma = sigma;
+  RefineResult result{device_from_marker, vr_from_camera, sigma};
   if (residual_blocks == 0) return result;
-  problem.SetManifold(q_x.coeffs().data(), &quaternion_manifold);
-  problem.SetManifold(q_y.coeffs().data(), &quaternion_manifold);
-  if (!options.estimate_scale) problem.SetParameterBlockConstant(&s);
+  problem.SetManifold(p.q_x.coeffs().data(), &quaternion_manifold);
+  problem.SetManifold(p.q_y.coeffs().data(), &quaternion_manifold);
+  if (!options.estimate_scale) problem.SetParameterBlockConstant(&p.sigma);
 
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_QR;
   solver_options.max_num_iterations = options.max_refine_iterations;
   solver_options.num_threads = 1;
   solver_options.logging_type = ceres::SILENT;
-  solver_options.minimizer_progress_to_stdout = false;
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, &problem, &summary);
 
   result.converged = summary.termination_type == ceres::CONVERGENCE;
   result.iterations = static_cast<int>(summary.iterations.size());
-  result.device_from_marker = SE3(q_x, t_x);
-  result.vr_from_camera = SE3(q_y, t_y);
-  result.sigma = s;
-  const int parameters = 12 + (options.estimate_scale ? 1 : 0);
-  const int dof = 6 * residual_blocks - parameters;
+  result.device_from_marker = SE3(p.q_x, p.t_x);
+  result.vr_from_camera = SE3(p.q_y, p.t_y);
+  result.sigma = p.sigma;
+  const int dof = 6 * residual_blocks - (12 + (options.estimate_scale ? 1 : 0));
   result.variance_factor = dof > 0 ? 2.0 * summary.final_cost / dof : 1.0;
-
   if (options.estimate_covariance && result.converged && dof > 0) {
-    ceres::Covariance::Options covariance_options;
-    covariance_options.algorithm_type = ceres::DENSE_SVD;
-    covariance_options.num_threads = 1;
-    ceres::Covariance covariance(covariance_options);
-    std::vector<std::pair<const double*, const double*>> blocks = {
-        {t_x.data(), t_x.data()},
-        {q_x.coeffs().data(), q_x.coeffs().data()},
-        {t_x.data(), q_x.coeffs().data()}};
-    if (options.estimate_scale) blocks.emplace_back(&s, &s);
-    if (covariance.Compute(blocks, &problem)) {
-      bool ok = false;
-      const Matrix6d c = assemble_covariance(covariance, q_x.coeffs().data(), t_x.data(), ok);
-      if (ok) result.device_from_marker_covariance = result.variance_factor * c;
-      double sigma_variance = 0.0;
-      if (options.estimate_scale && covariance.GetCovarianceBlock(&s, &s, &sigma_variance)) {
-        result.sigma_variance = result.variance_factor * sigma_variance;
-      }
-    }
+    compute_covariance(problem, p, options.estimate_scale, result);
   }
   return result;
 }

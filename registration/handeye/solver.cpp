@@ -240,15 +240,18 @@ Summary solve(std::span<const Registration> registrations, const Options& option
   bool refine_ok = true;
   summary.noise = options.noise;
   if (options.refine) {
+    // The covariance is computed in the last round only.
+    const int used_count = static_cast<int>(std::count(used.begin(), used.end(), true));
+    const int rounds = used_count >= 6 ? options.noise_estimation_rounds : 0;
     Options round = options;
+    round.estimate_covariance = options.estimate_covariance && rounds == 0;
     RefineResult refined = refine(registrations, used, estimate.device_from_marker,
                                   estimate.vr_from_camera, estimate.sigma, round);
-    const int used_count = static_cast<int>(std::count(used.begin(), used.end(), true));
-    for (int k = 0; k < options.noise_estimation_rounds && used_count >= 6 && refined.converged;
-         ++k) {
+    for (int k = 0; k < rounds && refined.converged; ++k) {
       round.noise = noise_from_residuals(registrations, used, refined.device_from_marker,
                                          refined.vr_from_camera, refined.sigma,
                                          12 + (options.estimate_scale ? 1 : 0));
+      round.estimate_covariance = options.estimate_covariance && k + 1 == rounds;
       refined = refine(registrations, used, refined.device_from_marker, refined.vr_from_camera,
                        refined.sigma, round);
     }
