@@ -38,14 +38,24 @@ bool is_coloc_pose_address(std::string_view address) {
   return address == kPoseAddress || address == kXrPoseAddress || address == kFusedPoseAddress;
 }
 
+// liblo's argument pointers point into the packet, 4-byte aligned, while lo_arg (a union with
+// doubles) wants 8: read through memcpy instead of argv[i]->d.
+template <typename T>
+T read_arg(lo_arg* arg) {
+  T value;
+  std::memcpy(&value, static_cast<const void*>(arg), sizeof(T));
+  return value;
+}
+
 void decode_pose_arguments(lo_message m, OscMessage& out, OscDecodeResult& result) {
   lo_arg** argv = lo_message_get_argv(m);
   PoseMessage& p = out.pose;
-  p.time = argv[0]->d;
-  p.sequence = argv[1]->i;
-  p.state = argv[2]->i;
-  p.position = {argv[3]->f, argv[4]->f, argv[5]->f};
-  Eigen::Vector4d q(argv[6]->f, argv[7]->f, argv[8]->f, argv[9]->f);
+  p.time = read_arg<double>(argv[0]);
+  p.sequence = read_arg<std::int32_t>(argv[1]);
+  p.state = read_arg<std::int32_t>(argv[2]);
+  p.position = {read_arg<float>(argv[3]), read_arg<float>(argv[4]), read_arg<float>(argv[5])};
+  Eigen::Vector4d q(read_arg<float>(argv[6]), read_arg<float>(argv[7]), read_arg<float>(argv[8]),
+                    read_arg<float>(argv[9]));
   if (!std::isfinite(p.time) || !p.position.allFinite() || !q.allFinite()) {
     set_error(result, OscError::kInvalidValue, out.address + ": non-finite value");
     return;
@@ -93,7 +103,7 @@ void decode_message(const std::uint8_t* data, std::size_t size, OscDecodeResult&
     decode_pose_arguments(m.get(), out, result);
   } else if (out.address == kGetPoseAddress) {
     if (types == "i") {
-      const int port = lo_message_get_argv(m.get())[0]->i;
+      const int port = read_arg<std::int32_t>(lo_message_get_argv(m.get())[0]);
       if (port <= 0 || port > 65535) {
         set_error(result, OscError::kInvalidValue, "get_pose: reply port out of range");
         return;

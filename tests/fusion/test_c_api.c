@@ -27,8 +27,13 @@ static int on_fused(const char* path, const char* types, lo_arg** argv, int argc
   (void)msg;
   (void)user;
   if (argc == 10 && strcmp(types, "diifffffff") == 0) {
-    received_state = argv[2]->i;
-    received_x = argv[3]->f;
+    /* liblo's arguments are 4-byte aligned inside the packet: copy rather than dereference. */
+    float x;
+    int32_t state;
+    memcpy(&state, (const void*)argv[2], sizeof(state));
+    memcpy(&x, (const void*)argv[3], sizeof(x));
+    received_state = state;
+    received_x = x;
     ++received;
   }
   return 0;
