@@ -70,6 +70,7 @@ std::vector<he::Registration> load_registrations(const SolveArgs& a) {
     throw Error("give --pairs FILE, or --device and --marker", {.field = "--pairs"});
   }
   std::vector<he::Registration> out;
+  out.reserve(timed.size());
   for (const auto& t : timed)
     out.push_back(t.registration);
   return out;
