@@ -365,5 +365,27 @@ TEST(OscNodes, PoseServerBroadcastAndOnDemand) {
   server.stop();
 }
 
+TEST(OscNodes, BundlesTimetaggedWithTheExposureTimeArriveAsMessages) {
+  OscEndpoint subscriber;
+  PoseServerOptions options;
+  options.bundles = true;
+  options.targets = {"osc.udp://127.0.0.1:" + std::to_string(subscriber.port())};
+  PoseServer server(options);
+  PoseMessage p = sample_pose();
+  p.time = 1.7e9 + 0.25;  // Unix seconds: the bundle's NTP timetag says the same instant
+  server.publish(p);
+  const auto got = subscriber.receive(2000);
+  ASSERT_TRUE(got.has_value());
+  ASSERT_EQ(got->messages.size(), 1u);
+  EXPECT_EQ(got->messages[0].address, kPoseAddress);
+  expect_same_pose(got->messages[0].pose, p);
+  const auto bytes = encode_pose(kPoseAddress, p, true);
+  ASSERT_GE(bytes.size(), 16u);
+  const std::uint32_t seconds = (std::uint32_t{bytes[8]} << 24) | (std::uint32_t{bytes[9]} << 16) |
+                                (std::uint32_t{bytes[10]} << 8) | std::uint32_t{bytes[11]};
+  EXPECT_EQ(seconds, 1700000000u + 2208988800u);  // NTP epoch 1900
+  EXPECT_EQ(bytes[12], 0x40);                     // fraction 0.25 = 0x40000000
+}
+
 }  // namespace
 }  // namespace coloc::fusion
