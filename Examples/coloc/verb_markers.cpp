@@ -170,6 +170,8 @@ struct ScanArgs {
   bool json = false;
 };
 
+void report_scan(const ScanArgs& a, const markers::ScanMarkersResult& r);
+
 void scan_markers_verb(const ScanArgs& a) {
   markers::ScanMarkerOptions o;
   o.detector.dictionary = a.dictionary;
@@ -198,7 +200,11 @@ void scan_markers_verb(const ScanArgs& a) {
                      "--max-distance, or look at --debug)");
   }
   markers::write_marker_map(a.out, r.map);
+  report_scan(a, r);
+}
 
+// Prints the fused markers (and, with --truth, their corner errors) as text or JSON.
+void report_scan(const ScanArgs& a, const markers::ScanMarkersResult& r) {
   std::map<int, std::array<Eigen::Vector3d, 4>> truth;
   if (!a.truth.empty()) truth = read_truth(a.truth);
   std::ostringstream json;
