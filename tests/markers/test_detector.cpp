@@ -49,6 +49,27 @@ TEST(Detector, OpenCvTutorialSingleMarkers) {
   }
 }
 
+// Edge-line refinement on real (JPEG, distorted) photos: same markers, corners within a pixel of
+// the sub-pixel ones, poses still consistent.
+TEST(Detector, EdgeLineRefinementOnRealPhotos) {
+  COLOC_REQUIRE_DATA(dir, "aruco_opencv_tutorial");
+  const cv::Mat image = read_image(dir / "singlemarkersoriginal.jpg");
+  const auto sub = MarkerDetector({.dictionary = "DICT_6X6_250"}).detect(image);
+  const auto edges = MarkerDetector({.dictionary = "DICT_6X6_250",
+                                     .corner_refinement = CornerRefinement::kEdgeLines})
+                         .detect(image);
+  ASSERT_EQ(sub.size(), edges.size());
+  const Camera camera = test::read_opencv_camera(dir / "tutorial_camera_params.yml", 640, 480);
+  for (std::size_t i = 0; i < sub.size(); ++i) {
+    EXPECT_EQ(sub[i].id, edges[i].id);
+    for (int c = 0; c < 4; ++c)
+      EXPECT_LT((sub[i].corners[c] - edges[i].corners[c]).norm(), 1.0);
+    const auto pose = estimate_marker_pose(camera, edges[i], {.marker_size = 0.05});
+    ASSERT_TRUE(pose.has_value());
+    EXPECT_LT(pose->reprojection_error_px(), 1.0);
+  }
+}
+
 TEST(Detector, OpenCvTutorialDetectorParametersFileLoads) {
   COLOC_REQUIRE_DATA(dir, "aruco_opencv_tutorial");
   const MarkerDetector detector(
