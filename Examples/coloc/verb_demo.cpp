@@ -103,7 +103,7 @@ void demo_evaluation(const std::filesystem::path& data, const std::filesystem::p
     est.push_back({p.timestamp, SE3(moved.so3() * p.world_from_cam.so3(), t)});
   }
   write_tum_trajectory(out / "perturbed_groundtruth.txt", est);
-  const eval::AteResult r = eval::compute_ate(gt, est, {.alignment = eval::Alignment::Sim3});
+  const eval::AteResult r = eval::compute_ate(gt, est, {.alignment = eval::Alignment::kSim3});
   std::printf(
       "  %zu poses moved by scale 1.5 + rotation + translation, noise 1 cm/axis:\n"
       "  recovered gt_from_est scale %.4f (1/1.5 = 0.6667), ATE rmse %.4f m (expected ~%.4f m); "

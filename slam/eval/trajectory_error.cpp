@@ -26,7 +26,7 @@ Associated associate(const Trajectory& ground_truth, const Trajectory& estimate,
 }
 
 Sim3 align(const Associated& a, Alignment alignment) {
-  if (alignment == Alignment::None) return {};
+  if (alignment == Alignment::kNone) return {};
   std::vector<Eigen::Vector3d> src;
   std::vector<Eigen::Vector3d> dst;
   for (std::size_t k = 0; k < a.gt.size(); ++k) {
@@ -34,7 +34,7 @@ Sim3 align(const Associated& a, Alignment alignment) {
     dst.push_back(a.gt[k].world_from_cam.translation());
   }
   const AlignmentResult r =
-      align_points(src, dst, {.estimate_scale = alignment == Alignment::Sim3});
+      align_points(src, dst, {.estimate_scale = alignment == Alignment::kSim3});
   if (!r.usable) {
     throw Error(
         "cannot align the trajectories: the estimated positions are (nearly) collinear "
@@ -50,9 +50,9 @@ SE3 transform(const Sim3& s, const SE3& pose) {
 }  // namespace
 
 Alignment parse_alignment(const std::string& name) {
-  if (name == "none") return Alignment::None;
-  if (name == "se3") return Alignment::SE3;
-  if (name == "sim3") return Alignment::Sim3;
+  if (name == "none") return Alignment::kNone;
+  if (name == "se3") return Alignment::kSE3;
+  if (name == "sim3") return Alignment::kSim3;
   throw Error("unknown alignment '" + name + "' (expected none, se3 or sim3)");
 }
 

@@ -16,7 +16,7 @@
 
 namespace coloc::eval {
 
-enum class Alignment { None, SE3, Sim3 };
+enum class Alignment { kNone, kSE3, kSim3 };
 
 // Parses "none" | "se3" | "sim3"; throws coloc::Error otherwise.
 Alignment parse_alignment(const std::string& name);
@@ -28,7 +28,7 @@ struct ErrorStats {
 ErrorStats compute_stats(const std::vector<double>& errors);
 
 struct AteOptions {
-  Alignment alignment = Alignment::SE3;
+  Alignment alignment = Alignment::kSE3;
   double max_dt = 0.02;  // seconds
 };
 
@@ -46,7 +46,7 @@ AteResult compute_ate(const Trajectory& ground_truth, const Trajectory& estimate
                       const AteOptions& options = {});
 
 struct RpeOptions {
-  Alignment alignment = Alignment::None;  // relative errors are invariant to SE3 alignment
+  Alignment alignment = Alignment::kNone;  // relative errors are invariant to SE3 alignment
   double max_dt = 0.02;                   // seconds
   std::size_t delta = 1;                  // pose pairs (i, i + delta) among associated poses
 };

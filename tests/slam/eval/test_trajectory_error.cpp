@@ -27,7 +27,7 @@ TEST(Ate, KnownAnswerWithoutAlignment) {
   for (std::size_t i = 0; i < est.size(); ++i) {
     est[i].world_from_cam.translation() += Eigen::Vector3d(0, 0, i % 2 == 0 ? 0.1 : -0.3);
   }
-  const AteResult r = compute_ate(gt, est, {.alignment = Alignment::None});
+  const AteResult r = compute_ate(gt, est, {.alignment = Alignment::kNone});
   EXPECT_EQ(r.translation.count, 50u);
   EXPECT_NEAR(r.translation.rmse, std::sqrt((0.01 + 0.09) / 2), 1e-12);
   EXPECT_NEAR(r.translation.mean, 0.2, 1e-12);
@@ -45,10 +45,10 @@ TEST(Ate, AlignmentRemovesRigidAndSimilarityMotion) {
     est.push_back({p.timestamp + 0.004, SE3(moved.so3() * p.world_from_cam.so3(),
                                             moved * p.world_from_cam.translation())});
   }
-  const AteResult sim3 = compute_ate(gt, est, {.alignment = Alignment::Sim3});
+  const AteResult sim3 = compute_ate(gt, est, {.alignment = Alignment::kSim3});
   EXPECT_LT(sim3.translation.rmse, 1e-9);
   EXPECT_NEAR(sim3.gt_from_est.scale(), 1.0 / 2.5, 1e-12);
-  const AteResult se3 = compute_ate(gt, est, {.alignment = Alignment::SE3});
+  const AteResult se3 = compute_ate(gt, est, {.alignment = Alignment::kSE3});
   EXPECT_GT(se3.translation.rmse, 0.1);  // scale cannot be explained rigidly
   EXPECT_EQ(se3.gt_from_est.scale(), 1.0);
 }
