@@ -1,5 +1,6 @@
 #include "fusion/drift_filter.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -62,9 +63,11 @@ DriftEstimate initialize_drift(const SE3& measured_drift, const DriftFilterOptio
   return e;
 }
 
-DriftEstimate predict_drift(DriftEstimate estimate, const DriftFilterOptions& options) {
-  estimate.translation_variance += options.process_noise;
-  estimate.rotation_variance += options.process_noise;
+DriftEstimate predict_drift(DriftEstimate estimate, const DriftFilterOptions& options,
+                            double steps) {
+  const double q = options.process_noise * std::max(steps, 1.0);
+  estimate.translation_variance += q;
+  estimate.rotation_variance += q;
   return estimate;
 }
 
@@ -101,14 +104,14 @@ DriftEstimate correct_drift(const DriftEstimate& predicted, const SE3& measured_
 }
 
 DriftUpdate update_drift(const DriftEstimate& estimate, const SE3& measured_drift,
-                         const DriftFilterOptions& options) {
+                         const DriftFilterOptions& options, double steps) {
   DriftUpdate u;
   if (!estimate.initialized || estimate.consecutive_rejections >= options.reset_after_rejections) {
     u.estimate = initialize_drift(measured_drift, options);
     u.decision = GateDecision::kInitialized;
     return u;
   }
-  const DriftEstimate predicted = predict_drift(estimate, options);
+  const DriftEstimate predicted = predict_drift(estimate, options, steps);
   u.translation_d2 = translation_mahalanobis2(predicted, measured_drift.translation(), options);
   u.rotation_d2 = rotation_mahalanobis2(predicted, coefficients(measured_drift), options);
   if (options.gating &&

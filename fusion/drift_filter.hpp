@@ -75,8 +75,11 @@ Eigen::Vector4d align_quaternion_sign(const Eigen::Vector4d& q, const Eigen::Vec
 // Starts the filter at one measurement with variance R.
 DriftEstimate initialize_drift(const SE3& measured_drift, const DriftFilterOptions& options);
 
-// Prediction with identity transition: P += Q.
-DriftEstimate predict_drift(DriftEstimate estimate, const DriftFilterOptions& options);
+// Prediction with identity transition: P += Q * steps. `steps` is the number of global-pose
+// periods since the last update (1 normally; more after a gap, so the filter trusts the next
+// measurement more and its gate widens with the uncertainty that really accumulated).
+DriftEstimate predict_drift(DriftEstimate estimate, const DriftFilterOptions& options,
+                            double steps = 1.0);
 
 // Squared Mahalanobis distances of a measurement against a predicted state (physical scale).
 double translation_mahalanobis2(const DriftEstimate& predicted, const Eigen::Vector3d& measured,
@@ -91,7 +94,7 @@ DriftEstimate correct_drift(const DriftEstimate& predicted, const SE3& measured_
 // One full step: initialize, or predict + gate + correct. The paper's filter is this with
 // options.gating = false.
 DriftUpdate update_drift(const DriftEstimate& estimate, const SE3& measured_drift,
-                         const DriftFilterOptions& options);
+                         const DriftFilterOptions& options, double steps = 1.0);
 
 // Steady-state Kalman gain of the identity random-walk model: the fraction of each innovation
 // that is applied once the filter has converged (documentation and tests).

@@ -17,6 +17,7 @@ void FuserOptions::check() const {
   require(buffer_seconds > 0.0, "buffer_seconds", "must be positive");
   require(max_extrapolation >= 0.0, "max_extrapolation", "must not be negative");
   require(hold_after > 0.0, "hold_after", "must be positive");
+  require(max_gap_periods >= 1.0, "max_gap_periods", "must be at least 1");
   require(max_correction_speed >= 0.0, "max_correction_speed", "must not be negative (0 = off)");
   require(max_correction_rate >= 0.0, "max_correction_rate", "must not be negative (0 = off)");
 }
@@ -89,8 +90,14 @@ GateDecision DriftFuser::push_global_pose(double time, const SE3& world_from_hea
   }
   last_global_time_ = time;
   const bool first = !estimate_.initialized;
-  const DriftUpdate update =
-      update_drift(estimate_, measure_drift(world_from_head, *xr_from_head), options_.filter);
+  // Periods since the last accepted pose: 1 while the stream flows, more after a gap.
+  double steps = 1.0;
+  if (estimate_.initialized && global_period_ > 0.0) {
+    steps =
+        std::clamp((time - last_accepted_time_) / global_period_, 1.0, options_.max_gap_periods);
+  }
+  const DriftUpdate update = update_drift(estimate_, measure_drift(world_from_head, *xr_from_head),
+                                          options_.filter, steps);
   estimate_ = update.estimate;
   switch (update.decision) {
     case GateDecision::kRejected:
@@ -104,6 +111,13 @@ GateDecision DriftFuser::push_global_pose(double time, const SE3& world_from_hea
     case GateDecision::kAccepted:
       ++stats_.accepted;
       break;
+  }
+  if (update.decision == GateDecision::kAccepted) {
+    // Learn the period from uninterrupted intervals only (a gap would inflate it).
+    const double interval = time - last_accepted_time_;
+    if (interval > 0.0 && interval < options_.hold_after) {
+      global_period_ = global_period_ > 0.0 ? 0.9 * global_period_ + 0.1 * interval : interval;
+    }
   }
   last_accepted_time_ = std::max(last_accepted_time_, time);
   return update.decision;

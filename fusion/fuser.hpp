@@ -38,6 +38,10 @@ struct FuserOptions {
   double buffer_seconds = 2.0;      // headset history kept for alignment
   double max_extrapolation = 0.02;  // s: accept a global pose this much newer than the headset
   double hold_after = 0.5;          // s without an accepted global pose -> kHolding
+  // After a gap in global poses the filter's process noise is applied once per missed period
+  // (the period is learnt from the stream), so a drift that moved while holding is taken up
+  // smoothly instead of being gated out; at most this many periods are counted.
+  double max_gap_periods = 2000.0;
   // Rate limit of the correction as the user sees it (at the head); 0 disables each.
   double max_correction_speed = 0.0;  // m/s
   double max_correction_rate = 0.0;   // rad/s
@@ -93,6 +97,7 @@ class DriftFuser {
   bool have_xr_ = false;
   double last_global_time_ = -1e300;
   double last_accepted_time_ = -1e300;
+  double global_period_ = 0.0;  // running mean of the accepted global poses' interval, s
 };
 
 // Moves the head pose `current` toward `target` by at most max_distance metres and max_angle

@@ -151,5 +151,31 @@ TEST(DriftFuser, RateLimitBoundsTheCorrectionSpeed) {
   EXPECT_NEAR(limited.translation().norm(), 0.1, 1e-12);
 }
 
+// Global poses stop for 30 s while the headset drifts by 10 cm; when they come back the held D
+// is 10 cm off. The filter takes the change up (no rejections, no re-initialization jump) and
+// converges within a second.
+TEST(DriftFuser, TakesUpDriftThatAccumulatedWhileHolding) {
+  DriftFuser fuser;
+  const SE3 head(SO3(), Eigen::Vector3d(0.0, 0.0, 1.6));
+  const SE3 moved(SO3(), Eigen::Vector3d(0.1, 0.0, 1.6));  // world pose after the drift
+  double t = 0.0;
+  for (int i = 0; i < 10 * 90; ++i, t += 1.0 / 90.0) {
+    fuser.push_xr_pose(t, head);
+    if (i % 4 == 0) fuser.push_global_pose(t, head);
+  }
+  t += 30.0;
+  EXPECT_EQ(fuser.push_xr_pose(t, head).state, FusionState::kHolding);
+  double error = 1.0;
+  for (int i = 0; i < 90; ++i, t += 1.0 / 90.0) {
+    if (i % 4 == 0) {
+      EXPECT_NE(fuser.push_global_pose(t - 0.005, moved), GateDecision::kRejected) << i;
+    }
+    error = translation_distance(fuser.push_xr_pose(t, head).world_from_head, moved);
+  }
+  EXPECT_LT(error, 0.01);
+  EXPECT_EQ(fuser.stats().rejected, 0u);
+  EXPECT_EQ(fuser.stats().initialized, 1u);
+}
+
 }  // namespace
 }  // namespace coloc::fusion
