@@ -157,6 +157,7 @@ FuserOptions paper_options() {
   FuserOptions o;
   o.time_alignment = false;
   o.filter.gating = false;
+  o.max_gap_periods = 1.0;  // the paper's Q is per global pose, whatever the gap
   return o;
 }
 
