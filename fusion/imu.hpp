@@ -17,7 +17,6 @@
 // away (double integration turns a 0.1 m/s^2 error into metres within seconds); the drift
 // filter then removes what is left, exactly as in headset mode, and gates bad global poses.
 
-#include <deque>
 #include <filesystem>
 #include <optional>
 #include <span>
