@@ -78,7 +78,8 @@ std::size_t PointStream::read(PointBuffer& buffer, std::size_t max_points) {
       std::min<std::uint64_t>(max_points, cv_->record_count() - cv_->records_read()));
   buffer.reset(mask_, n);
   if (n == 0) return 0;
-  std::vector<Sink> sinks(channel_field_.size());
+  std::vector<Sink>& sinks = sinks_;  // kept between calls: no allocation per chunk
+  sinks.assign(channel_field_.size(), Sink{});
   for (std::size_t i = 0; i < sinks.size(); ++i) {
     if (channel_field_[i] >= 0)
       sinks[i] = sink_for(buffer, static_cast<PointField>(channel_field_[i]));

@@ -35,6 +35,7 @@ struct ReaderOptions {
 };
 
 class CompressedVectorReader;
+struct Sink;
 
 // Reads one scan's points in chunks; memory is bounded by the chunk size (plus ~1 MiB of
 // packet buffers), never by the scan.
@@ -58,6 +59,7 @@ class PointStream {
   std::unique_ptr<PagedReader> file_;
   std::unique_ptr<CompressedVectorReader> cv_;
   std::vector<int> channel_field_;  // PointField index per channel, -1 = not read
+  std::vector<Sink> sinks_;
   std::uint32_t mask_ = 0;
 };
 
