@@ -37,6 +37,7 @@ int main(int argc, char** argv) {
   coloc::cli::add_vocab_verb(app, bench);
   coloc::cli::add_twin_verb(app, bench);
   coloc::cli::add_markers_verb(app, bench);
+  coloc::cli::add_map_verb(app, bench);
 
   try {
     app.parse(argc, argv);

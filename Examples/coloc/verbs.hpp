@@ -15,5 +15,6 @@ void add_fuse_verb(CLI::App& app, CLI::App& bench);
 void add_vocab_verb(CLI::App& app, CLI::App& bench);
 void add_twin_verb(CLI::App& app, CLI::App& bench);
 void add_markers_verb(CLI::App& app, CLI::App& bench);
+void add_map_verb(CLI::App& app, CLI::App& bench);
 
 }  // namespace coloc::cli

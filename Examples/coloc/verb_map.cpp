@@ -1,0 +1,171 @@
+// coloc map: RGB-D SLAM over a recorded sequence (TUM, 7-Scenes), writing the trajectory in
+// TUM format. coloc bench track: tracking time per frame by stage (median, p99), local BA time
+// and ATE, over one or more runs (threads make runs differ; several runs show the spread).
+
+#include <spdlog/spdlog.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <sstream>
+
+#include "Examples/coloc/cli_common.hpp"
+#include "Examples/coloc/verbs.hpp"
+#include "slam/bow/vocabulary.hpp"
+#include "slam/core/error.hpp"
+#include "slam/core/progress.hpp"
+#include "slam/core/timing.hpp"
+#include "slam/dataset/sequence.hpp"
+#include "slam/eval/trajectory_error.hpp"
+#include "slam/settings/settings.hpp"
+#include "slam/system/system.hpp"
+
+#ifndef COLOC_SOURCE_DIR
+#define COLOC_SOURCE_DIR "."
+#endif
+
+namespace coloc::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The repository (for the shipped vocabulary and camera files): $COLOC_SOURCE_DIR, else the
+// source tree this binary was built from.
+fs::path source_dir() {
+  if (const char* env = std::getenv("COLOC_SOURCE_DIR"); env != nullptr && *env != '\0') return env;
+  return COLOC_SOURCE_DIR;
+}
+
+struct MapArgs {
+  fs::path sequence, config, vocabulary, trajectory, keyframes;
+  bool sequential = false;
+  bool json = false;
+  int runs = 1;
+};
+
+fs::path default_vocabulary() {
+  return source_dir() / "Vocabulary/coloc_orb_k10_L5.cvoc";
+}
+
+// The shipped camera file for the sequence's format.
+fs::path default_config(const dataset::Sequence& sequence) {
+  const fs::path dir = source_dir() / "Examples/RGB-D";
+  if (sequence.format() == "7scenes") return dir / "7Scenes.yaml";
+  if (sequence.format() == "tum") return dir / "TUM1.yaml";
+  throw Error("no default camera settings for format '" + sequence.format() + "': pass --config");
+}
+
+struct RunResult {
+  slam::system::SystemSummary summary;
+  Trajectory trajectory, keyframes;
+  std::optional<eval::AteResult> ate;
+};
+
+RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& settings,
+                   const slam::bow::Vocabulary& vocabulary, bool sequential) {
+  slam::system::SystemOptions options;
+  options.sequential_mapping = sequential;
+  slam::system::System slam(settings, vocabulary, options);
+  Progress progress("slam", sequence.size());
+  for (std::size_t i = 0; i < sequence.size(); ++i) {
+    const auto frame = sequence.frame(i);
+    slam.track(frame.color, frame.depth, frame.timestamp);
+    progress.set(i + 1);
+  }
+  progress.finish();
+  slam.shutdown();
+  RunResult r{slam.summary(), slam.trajectory(), slam.keyframe_trajectory(), std::nullopt};
+  if (!sequence.ground_truth().empty() && r.trajectory.size() >= 3) {
+    r.ate = eval::compute_ate(sequence.ground_truth(), r.trajectory);
+  }
+  return r;
+}
+
+void run_map(const MapArgs& args) {
+  const auto sequence = dataset::open_sequence(args.sequence);
+  const fs::path config = args.config.empty() ? default_config(*sequence) : args.config;
+  const auto settings = settings::load_settings(config);
+  const auto vocabulary =
+      slam::bow::Vocabulary::load(args.vocabulary.empty() ? default_vocabulary() : args.vocabulary);
+  const RunResult r = run_slam(*sequence, settings, vocabulary, args.sequential);
+  write_tum_trajectory(args.trajectory, r.trajectory);
+  if (!args.keyframes.empty()) write_tum_trajectory(args.keyframes, r.keyframes);
+  const auto& s = r.summary;
+  if (args.json) {
+    std::cout << "{\"frames\": " << s.frames << ", \"tracked\": " << s.tracked
+              << ", \"lost\": " << s.lost << ", \"keyframes\": " << s.keyframes
+              << ", \"map_points\": " << s.points << ", \"relocalizations\": " << s.relocalizations
+              << ", \"markers\": " << s.mapping.markers
+              << ", \"ms_per_frame_median\": " << json_number(s.total_ms.median)
+              << ", \"ms_per_frame_p99\": " << json_number(s.total_ms.p99)
+              << ", \"ate_rmse_m\": " << (r.ate ? json_number(r.ate->translation.rmse) : "null")
+              << "}\n";
+  } else {
+    std::cout << s.describe() << "\n";
+    if (r.ate)
+      std::cout << "ATE RMSE " << r.ate->translation.rmse << " m over " << r.ate->translation.count
+                << " poses\n";
+    std::cout << "trajectory: " << args.trajectory.string() << "\n";
+  }
+}
+
+void run_bench(const MapArgs& args) {
+  const auto sequence = dataset::open_sequence(args.sequence);
+  const fs::path config = args.config.empty() ? default_config(*sequence) : args.config;
+  const auto settings = settings::load_settings(config);
+  const auto vocabulary =
+      slam::bow::Vocabulary::load(args.vocabulary.empty() ? default_vocabulary() : args.vocabulary);
+  std::printf("sequence %s (%zu frames), settings %s, %s mapping\n", args.sequence.string().c_str(),
+              sequence->size(), config.string().c_str(),
+              args.sequential ? "sequential" : "concurrent");
+  std::printf("%4s %10s %10s %10s %10s %10s %10s %8s %6s %5s %9s\n", "run", "extr_med", "extr_p99",
+              "track_med", "track_p99", "total_med", "total_p99", "ba_med", "lost", "kfs",
+              "ate_mm");
+  for (int run = 0; run < args.runs; ++run) {
+    const RunResult r = run_slam(*sequence, settings, vocabulary, args.sequential);
+    const auto& s = r.summary;
+    const SampleStats ba = summarize(s.mapping.ba_ms);
+    std::printf("%4d %10.2f %10.2f %10.2f %10.2f %10.2f %10.2f %8.1f %6zu %5zu %9.2f\n", run + 1,
+                s.extract_ms.median, s.extract_ms.p99, s.track_ms.median, s.track_ms.p99,
+                s.total_ms.median, s.total_ms.p99, ba.median, s.lost, s.keyframes,
+                r.ate ? 1e3 * r.ate->translation.rmse : -1.0);
+  }
+  std::printf(
+      "ms per frame in the tracking thread (extraction included in total); ba_med: local BA ms per "
+      "keyframe\n");
+}
+
+}  // namespace
+
+void add_map_verb(CLI::App& app, CLI::App& bench) {
+  auto args = std::make_shared<MapArgs>();
+  CLI::App* map = app.add_subcommand(
+      "map", "RGB-D SLAM over a sequence (TUM, 7-Scenes): trajectory in TUM format");
+  map->add_option("--sequence", args->sequence, "Sequence folder")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  map->add_option("--config", args->config,
+                  "Camera settings YAML (default: shipped file for the format)");
+  map->add_option("--vocabulary", args->vocabulary,
+                  "BoW vocabulary (default: Vocabulary/coloc_orb_k10_L5.cvoc)");
+  map->add_option("--trajectory", args->trajectory, "Output trajectory (TUM format)")->required();
+  map->add_option("--keyframes", args->keyframes, "Output keyframe trajectory (TUM format)");
+  map->add_flag("--sequential", args->sequential,
+                "Tracking waits for local mapping after each keyframe");
+  map->add_flag("--json", args->json, "Machine-readable summary");
+  map->callback([args] { run_map(*args); });
+
+  CLI::App* track =
+      bench.add_subcommand("track", "RGB-D tracking ms/frame by stage, local BA time, ATE");
+  track->add_option("sequence", args->sequence, "Sequence folder")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  track->add_option("--config", args->config, "Camera settings YAML");
+  track->add_option("--vocabulary", args->vocabulary, "BoW vocabulary");
+  track->add_option("--runs", args->runs, "Runs (spread between runs)")->check(CLI::Range(1, 100));
+  track->add_flag("--sequential", args->sequential, "Tracking waits for local mapping");
+  track->callback([args] { run_bench(*args); });
+}
+
+}  // namespace coloc::cli
