@@ -2,7 +2,10 @@
 // (t[ns], gyro xyz [rad/s], accel xyz [m/s^2]). Ground truth from
 // mav0/state_groundtruth_estimate0/data.csv (body = IMU frame; turned into the left camera's
 // pose with cam0's T_BS) or, as ORB-SLAM3 distributes it, a "<name>_GT_*.txt" file in the
-// sequence folder already in the left camera frame (t[ns],px,py,pz,qw,qx,qy,qz).
+// sequence folder already in the left camera frame (t[ns],px,py,pz,qw,qx,qy,qz). In that file
+// the quaternion is the conjugate of world_from_cam's rotation (checked two ways on V1_01: with
+// it conjugated the camera's y axis points down along gravity and the rotation rates match the
+// gyroscope; taken as written, neither holds), so it is conjugated on reading.
 
 #include <algorithm>
 #include <cmath>
@@ -135,21 +138,23 @@ class EurocSequence final : public Sequence {
       const std::string name = entry.path().filename().string();
       if (entry.is_regular_file() && name.find("_GT") != std::string::npos &&
           entry.path().extension() == ".txt") {
-        read_pose_csv(entry.path(), SE3());
+        read_pose_csv(entry.path(), SE3(), /*conjugate_rotation=*/true);
         return;
       }
     }
     const auto state = root_ / "state_groundtruth_estimate0" / "data.csv";
-    if (std::filesystem::exists(state) && cam0_) read_pose_csv(state, cam0_->body_from_cam);
+    if (std::filesystem::exists(state) && cam0_) read_pose_csv(state, cam0_->body_from_cam, false);
   }
 
-  // t[ns], p xyz, q wxyz; each pose is right-multiplied by sensor_from_cam.
-  void read_pose_csv(const std::filesystem::path& file, const SE3& frame_from_cam) {
+  // t[ns], p xyz, q wxyz; each pose is right-multiplied by frame_from_cam.
+  void read_pose_csv(const std::filesystem::path& file, const SE3& frame_from_cam,
+                     bool conjugate_rotation) {
     for (const auto& row : read_text_table(file)) {
       double v[8];
       for (int k = 0; k < 8; ++k)
         v[k] = parse_double(file, row, k);
-      const Eigen::Quaterniond q(v[4], v[5], v[6], v[7]);
+      Eigen::Quaterniond q(v[4], v[5], v[6], v[7]);
+      if (conjugate_rotation) q = q.conjugate();
       const SE3 world_from_frame(q, Eigen::Vector3d(v[1], v[2], v[3]));
       ground_truth_.push_back({v[0] * 1e-9, world_from_frame * frame_from_cam});
     }

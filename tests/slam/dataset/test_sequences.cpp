@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 #include <opencv2/core.hpp>
 
@@ -84,7 +85,12 @@ TEST(EurocSequence, StereoImuGroundTruthAndIntrinsics) {
   EXPECT_GE(between.size(), 9u);  // 50 ms at 200 Hz
   EXPECT_LE(between.size(), 11u);
   ASSERT_FALSE(seq->ground_truth().empty());
-  EXPECT_NEAR(seq->ground_truth().front().world_from_cam.translation().x(), 0.8687393558, 1e-9);
+  const SE3& world_from_cam = seq->ground_truth().front().world_from_cam;
+  EXPECT_NEAR(world_from_cam.translation().x(), 0.8687393558, 1e-9);
+  // Vicon's world z is up: the camera's y axis (image down) points down, its optical axis is
+  // near horizontal.
+  EXPECT_LT(world_from_cam.rotation().col(1).z(), -0.8);
+  EXPECT_LT(std::abs(world_from_cam.rotation().col(2).z()), 0.5);
   ASSERT_TRUE(seq->camera().has_value());
   EXPECT_DOUBLE_EQ(intrinsic_matrix(*seq->camera())(0, 0), 458.654);
 }
