@@ -5,8 +5,12 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <map>
 #include <memory>
+#include <opencv2/imgproc.hpp>
 
+#include "markers/dictionary.hpp"
+#include "markers/synthetic.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/eval/trajectory_error.hpp"
 #include "slam/settings/settings.hpp"
@@ -59,6 +63,61 @@ TEST(SlamSystem, SyntheticSceneTracksWithMillimetreAccuracy) {
   RecordProperty("ate_mm", std::to_string(1e3 * ate.translation.rmse));
   std::cout << "synthetic ATE RMSE " << 1e3 * ate.translation.rmse << " mm\n"
             << s.describe() << "\n";
+}
+
+// A marker printed on the synthetic room's far wall: every keyframe must store its
+// observation (id and four corners) where the true pose projects the corners.
+TEST(SlamSystem, KeyframesStoreMarkerObservations) {
+  SyntheticSceneOptions scene_options;
+  scene_options.frames = 12;
+  const SyntheticRgbdScene scene(scene_options);
+  settings::Settings settings = scene.settings();
+  settings.markers.dictionary = "DICT_4X4_50";
+  const auto dictionary = markers::make_dictionary(settings.markers.dictionary);
+  const double size = 0.5;
+  // On the far wall (z = 3), facing the camera: marker x = world x, y = -world y, z = -world z.
+  Eigen::Matrix3d r;
+  r << 1, 0, 0, 0, -1, 0, 0, 0, -1;
+  const SE3 world_from_marker(SO3::from_matrix(r), Eigen::Vector3d(0.3, -0.2, 3.0));
+  const std::array<Eigen::Vector3d, 4> corners = {Eigen::Vector3d(-size / 2, size / 2, 0),
+                                                  {size / 2, size / 2, 0},
+                                                  {size / 2, -size / 2, 0},
+                                                  {-size / 2, -size / 2, 0}};
+  SystemOptions options;
+  options.sequential_mapping = true;
+  options.tracking.max_frames_between_keyframes = 4;
+  System slam(settings, vocabulary(), options);
+  std::map<double, SE3> truth;
+  for (int i = 0; i < scene.size(); ++i) {
+    SyntheticFrame f = scene.frame(i);
+    cv::Mat grey;
+    cv::cvtColor(f.color, grey, cv::COLOR_BGR2GRAY);
+    markers::render_marker(grey, settings.camera, f.world_from_cam.inverse() * world_from_marker,
+                           *dictionary, 7, size);
+    cv::cvtColor(grey, f.color, cv::COLOR_GRAY2BGR);
+    truth[f.timestamp] = f.world_from_cam;
+    slam.track(f.color, f.depth, f.timestamp);
+  }
+  slam.shutdown();
+  const int checked = slam.with_map([&](const map::Map& m) {
+    int n = 0;
+    for (const auto& [id, kf] : m.keyframes()) {
+      EXPECT_EQ(kf.markers.size(), 1u) << "keyframe " << id;
+      if (kf.markers.size() != 1) continue;
+      EXPECT_EQ(kf.markers[0].id, 7);
+      const SE3 cam_from_marker = truth.at(kf.frame.timestamp).inverse() * world_from_marker;
+      for (int c = 0; c < 4; ++c) {
+        const Eigen::Vector2d expected =
+            project(settings.camera, cam_from_marker * corners[static_cast<std::size_t>(c)]);
+        EXPECT_LT((kf.markers[0].corners[static_cast<std::size_t>(c)] - expected).norm(), 1.0)
+            << "corner " << c;
+      }
+      ++n;
+    }
+    return n;
+  });
+  EXPECT_GE(checked, 2);
+  EXPECT_EQ(slam.summary().mapping.markers, checked);
 }
 
 struct TumRun {
