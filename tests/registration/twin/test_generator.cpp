@@ -126,7 +126,7 @@ TEST_F(TwinGenerator, FoundationReadersLoadTheSequence) {
   ASSERT_EQ(seq->ground_truth().size(), summary_->frames);
   // The first second starts at rest (nearly collinear positions): compare without alignment.
   eval::AteOptions ao;
-  ao.alignment = eval::Alignment::None;
+  ao.alignment = eval::Alignment::kNone;
   const eval::AteResult ate = eval::compute_ate(seq->ground_truth(), seq->ground_truth(), ao);
   EXPECT_LT(ate.translation.rmse, 1e-9);
 }
