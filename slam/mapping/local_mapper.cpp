@@ -10,6 +10,7 @@
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/mapping/fuse.hpp"
+#include "slam/mapping/triangulate.hpp"
 
 namespace coloc::slam::mapping {
 
@@ -92,6 +93,16 @@ void LocalMapper::run() {
 void LocalMapper::process(const KeyframeMessage& message) {
   insert_keyframe(message);
   cull_recent_points(message.id);
+  if (options_.triangulation) {
+    std::lock_guard lock(shared_.mutex);
+    if (shared_.map.keyframe(message.id)) {
+      const auto created = triangulate_with_neighbours(shared_.map, message.id,
+                                                       shared_.map.covisible(message.id, 10));
+      recent_points_.insert(recent_points_.end(), created.begin(), created.end());
+      std::lock_guard slock(state_mutex_);
+      stats_.points_triangulated += static_cast<int>(created.size());
+    }
+  }
   fuse_neighbours(message.id);
   // ORB-SLAM skips BA while keyframes wait: tracking needs them in the map first.
   if (options_.local_ba && queue_.size() == 0 && !stopping_) {

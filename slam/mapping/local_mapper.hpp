@@ -29,6 +29,7 @@ struct LocalMappingOptions {
   std::size_t queue_capacity = 4;      // keyframes waiting for the mapper
   std::size_t fusion_neighbours = 10;  // covisible keyframes searched for duplicates
   double fusion_radius = 3.0;          // pixels at level 0
+  bool triangulation = true;           // new points from matches with covisible keyframes
   bool local_ba = true;
   optim::BundleOptions ba;
   bool keyframe_culling = true;
@@ -49,6 +50,7 @@ struct MappingStats {
   int keyframes_culled = 0;
   int points_culled = 0;
   int points_fused = 0;
+  int points_triangulated = 0;
   int markers = 0;            // marker observations stored in keyframes
   std::vector<double> ba_ms;  // wall time of each local BA
 };

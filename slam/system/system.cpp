@@ -25,6 +25,7 @@ std::string SystemOptions::describe() const {
     << "tracking.close_untracked_limit " << tracking.close_untracked_limit << "\n"
     << "tracking.relocalization.min_inliers " << tracking.relocalization.min_inliers << "\n"
     << "mapping.queue_capacity " << mapping.queue_capacity << "\n"
+    << "mapping.triangulation " << mapping.triangulation << "\n"
     << "mapping.local_ba " << mapping.local_ba << " (iterations " << mapping.ba.iterations_robust
     << " + " << mapping.ba.iterations_refine << ")\n"
     << "mapping.keyframe_culling " << mapping.keyframe_culling << " (redundancy "
@@ -44,7 +45,8 @@ std::string SystemSummary::describe() const {
   const SampleStats ba = summarize(mapping.ba_ms);
   s << "local BA: " << mapping.ba_runs << " runs (" << mapping.ba_aborted << " aborted), ms median "
     << ba.median << ", p99 " << ba.p99 << "; keyframes culled " << mapping.keyframes_culled
-    << ", points culled " << mapping.points_culled << ", fused " << mapping.points_fused;
+    << ", points culled " << mapping.points_culled << ", fused " << mapping.points_fused
+    << ", triangulated " << mapping.points_triangulated;
   return s.str();
 }
 

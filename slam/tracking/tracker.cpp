@@ -84,7 +84,15 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
         ok = relocalize();
         result.relocalized = ok;
       }
-      if (ok) ok = track_local_map();
+      if (ok) {
+        ok = track_local_map();
+        if (!ok)
+          spdlog::debug("tracking: frame {} local map inliers {}", current_.id.value(),
+                        matches_inliers_);
+      } else if (state_ == TrackingState::kOk) {
+        spdlog::debug("tracking: frame {} lost (motion model and reference keyframe failed)",
+                      current_.id.value());
+      }
       if (ok) {
         if (last_.has_pose) {
           velocity_ = current_.cam_from_world * last_.cam_from_world.inverse();
