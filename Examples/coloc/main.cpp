@@ -30,14 +30,14 @@ int main(int argc, char** argv) {
   bench.require_subcommand(1);
 
   coloc::cli::add_demo_verb(app);
+  coloc::cli::add_eval_verb(app);
+  coloc::cli::add_vocab_verb(app, bench);
+  coloc::cli::add_map_verb(app, bench);
+  coloc::cli::add_e57_verb(app, bench);
+  coloc::cli::add_markers_verb(app, bench);
+  coloc::cli::add_twin_verb(app, bench);
   coloc::cli::add_handeye_verb(app, bench);
   coloc::cli::add_fuse_verb(app, bench);
-  coloc::cli::add_eval_verb(app);
-  coloc::cli::add_e57_verb(app, bench);
-  coloc::cli::add_vocab_verb(app, bench);
-  coloc::cli::add_twin_verb(app, bench);
-  coloc::cli::add_markers_verb(app, bench);
-  coloc::cli::add_map_verb(app, bench);
 
   try {
     app.parse(argc, argv);

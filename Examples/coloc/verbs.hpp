@@ -7,14 +7,15 @@
 
 namespace coloc::cli {
 
-void add_eval_verb(CLI::App& app);
-void add_e57_verb(CLI::App& app, CLI::App& bench);
+// `bench` is the `coloc bench` subcommand: a verb adds its speed measurements under it.
 void add_demo_verb(CLI::App& app);
+void add_eval_verb(CLI::App& app);
+void add_vocab_verb(CLI::App& app, CLI::App& bench);
+void add_map_verb(CLI::App& app, CLI::App& bench);
+void add_e57_verb(CLI::App& app, CLI::App& bench);
+void add_markers_verb(CLI::App& app, CLI::App& bench);
+void add_twin_verb(CLI::App& app, CLI::App& bench);
 void add_handeye_verb(CLI::App& app, CLI::App& bench);
 void add_fuse_verb(CLI::App& app, CLI::App& bench);
-void add_vocab_verb(CLI::App& app, CLI::App& bench);
-void add_twin_verb(CLI::App& app, CLI::App& bench);
-void add_markers_verb(CLI::App& app, CLI::App& bench);
-void add_map_verb(CLI::App& app, CLI::App& bench);
 
 }  // namespace coloc::cli
