@@ -8,6 +8,7 @@
 #include <random>
 
 #include "registration/render/renderer.hpp"
+#include "registration/twin/image_writer.hpp"
 #include "registration/twin/scene.hpp"
 #include "registration/twin/twin_io.hpp"
 #include "slam/core/error.hpp"
@@ -24,12 +25,6 @@ std::string stamp(double t) {
   char buf[32];
   std::snprintf(buf, sizeof(buf), "%.6f", t);
   return buf;
-}
-
-void write_png(const fs::path& path, const cv::Mat& image) {
-  if (!cv::imwrite(path.string(), image, {cv::IMWRITE_PNG_COMPRESSION, 1})) {
-    throw Error("cannot write image", {.file = path.string()});
-  }
 }
 
 std::ofstream open_list(const fs::path& path, const std::string& title) {
@@ -75,6 +70,7 @@ SequenceResult write_sequence(render::Renderer& renderer, const WalkTrajectory& 
   std::ofstream depth = open_list(dir / "depth.txt", "depth maps");
   std::ofstream assoc(dir / "associations.txt");
   SequenceResult result;
+  AsyncPngWriter png;  // encodes on a second thread while the next frame renders
   Progress progress("twin: RGB-D frames", frames.size(), o.quiet);
   for (std::size_t i = 0; i < frames.size(); ++i) {
     const double t = frames[i].timestamp;
@@ -86,13 +82,14 @@ SequenceResult write_sequence(render::Renderer& renderer, const WalkTrajectory& 
     cv::Mat bgr;
     cv::cvtColor(r.colour, bgr, cv::COLOR_RGB2BGR);
     const std::string name = stamp(t) + ".png";
-    write_png(dir / "rgb" / name, bgr);
-    write_png(dir / "depth" / name, mm);
+    png.write(dir / "rgb" / name, bgr);
+    png.write(dir / "depth" / name, mm);
     rgb << stamp(t) << " rgb/" << name << '\n';
     depth << stamp(t) << " depth/" << name << '\n';
     assoc << stamp(t) << " rgb/" << name << ' ' << stamp(t) << " depth/" << name << '\n';
     progress.advance();
   }
+  png.close();
   progress.finish();
   result.groundtruth = frames;
   write_tum_trajectory(dir / "groundtruth.txt", frames);

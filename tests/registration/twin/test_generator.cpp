@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "registration/twin/generator.hpp"
+#include "registration/twin/image_writer.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/trajectory.hpp"
 #include "slam/dataset/sequence.hpp"
@@ -175,6 +176,25 @@ TEST_F(TwinGenerator, ScanFilesHoldStationsPointsAndFaces) {
   const cv::Mat face = cv::imdecode(jpeg, cv::IMREAD_COLOR);
   EXPECT_EQ(face.cols, 96);
 #endif
+}
+
+TEST(TwinImageWriter, WritesInOrderAndReportsFailures) {
+  const fs::path dir = coloc::testing::temp_dir("twin_png");
+  {
+    AsyncPngWriter w(2);
+    for (int i = 0; i < 6; ++i) {
+      w.write(dir / (std::to_string(i) + ".png"), cv::Mat(8, 8, CV_8UC3, cv::Scalar(i, 0, 0)));
+    }
+    w.close();
+  }
+  for (int i = 0; i < 6; ++i) {
+    const cv::Mat m = cv::imread((dir / (std::to_string(i) + ".png")).string());
+    ASSERT_FALSE(m.empty()) << i;
+    EXPECT_EQ(m.at<cv::Vec3b>(0, 0)[0], i);
+  }
+  AsyncPngWriter bad;
+  bad.write(dir / "missing" / "x.png", cv::Mat(8, 8, CV_8UC1, cv::Scalar(1)));
+  EXPECT_THROW(bad.close(), Error);
 }
 
 TEST(TwinGeneratorOptions, RejectsBadOptions) {
