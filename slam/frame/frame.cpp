@@ -67,17 +67,6 @@ Frame::Frame(FrameId frame_id, double stamp, features::OrbFeatures feats,
   points.assign(n, MapPointId::invalid());
   outlier.assign(n, 0);
   const FrameGeometry& g = *geometry_;
-  // The extractor maps level pixels to level 0 by x * scale (ORB-SLAM's convention); with pixel
-  // centres at integer coordinates the exact map is (x + 0.5) * scale - 0.5, so coarse levels
-  // sit up to (scale - 1) / 2 pixels off. Correct it here (distortion varies slowly, so the
-  // same shift applies to the undistorted coordinates).
-  for (auto& kp : features.keypoints) {
-    const float shift = 0.5f * (g.scale_factors[static_cast<std::size_t>(kp.level)] - 1.0f);
-    kp.x += shift;
-    kp.y += shift;
-    kp.ux += shift;
-    kp.uy += shift;
-  }
   if (!depth_image.empty()) {
     if (depth_image.type() != CV_32FC1) throw Error("Frame: depth image must be CV_32FC1 metres");
     for (std::size_t i = 0; i < n; ++i) {
