@@ -94,6 +94,9 @@ tracking::TrackingResult System::track(const cv::Mat& image, const cv::Mat& dept
   auto r = tracker_->track(image, depth, timestamp);
   extract_ms_.push_back(r.extract_ms);
   track_ms_.push_back(r.track_ms);
+  pose_ms_.push_back(r.pose_ms);
+  local_map_ms_.push_back(r.local_map_ms);
+  keyframe_ms_.push_back(r.keyframe_ms);
   return r;
 }
 
@@ -140,6 +143,9 @@ SystemSummary System::summary() const {
   s.extract_ms = summarize(extract_ms_);
   s.track_ms = summarize(track_ms_);
   s.total_ms = summarize(total);
+  s.pose_ms = summarize(pose_ms_);
+  s.local_map_ms = summarize(local_map_ms_);
+  s.keyframe_ms = summarize(keyframe_ms_);
   return s;
 }
 

@@ -35,7 +35,8 @@ struct SystemSummary {
   std::size_t keyframes = 0, points = 0;
   int relocalizations = 0;
   mapping::MappingStats mapping;
-  SampleStats extract_ms, track_ms, total_ms;  // per frame, tracking thread
+  SampleStats extract_ms, track_ms, total_ms;      // per frame, tracking thread
+  SampleStats pose_ms, local_map_ms, keyframe_ms;  // stages of track_ms
   std::string describe() const;
 };
 
@@ -70,7 +71,7 @@ class System {
   std::unique_ptr<markers::MarkerDetector> detector_;
   std::unique_ptr<mapping::LocalMapper> mapper_;
   std::unique_ptr<tracking::Tracker> tracker_;
-  std::vector<double> extract_ms_, track_ms_;
+  std::vector<double> extract_ms_, track_ms_, pose_ms_, local_map_ms_, keyframe_ms_;
 };
 
 }  // namespace coloc::slam::system

@@ -76,6 +76,7 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
       ok = initialize();
       if (ok) result.keyframe = true;
     } else {
+      Stopwatch stage;
       if (state_ == TrackingState::kOk) {
         if (!shared_.map.keyframe(reference_)) update_local_map();
         ok = has_velocity_ && track_motion_model();
@@ -84,6 +85,8 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
         ok = relocalize();
         result.relocalized = ok;
       }
+      result.pose_ms = stage.elapsed_ms();
+      stage.restart();
       if (ok) {
         ok = track_local_map();
         if (!ok)
@@ -98,7 +101,10 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
           velocity_ = current_.cam_from_world * last_.cam_from_world.inverse();
           has_velocity_ = true;
         }
+        result.local_map_ms = stage.elapsed_ms();
+        stage.restart();
         make_keyframe = need_keyframe();
+        result.keyframe_ms = stage.elapsed_ms();
       } else {
         has_velocity_ = false;
       }
@@ -115,7 +121,11 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
       }
       records_.push_back(rec);
     }
-    if (make_keyframe) create_keyframe(grey);
+    if (make_keyframe) {
+      Stopwatch stage;
+      create_keyframe(grey);
+      result.keyframe_ms += stage.elapsed_ms();
+    }
   }
   if (result.keyframe || make_keyframe) {
     mapper_.push({reference_, grey.clone()});

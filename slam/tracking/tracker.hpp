@@ -47,6 +47,9 @@ struct TrackingResult {
   bool keyframe = false;
   bool relocalized = false;
   double extract_ms = 0.0, track_ms = 0.0;  // feature extraction, the rest of tracking
+  // Stages of track_ms: initial pose (motion model / reference keyframe / relocalization),
+  // local-map tracking, keyframe decision and creation.
+  double pose_ms = 0.0, local_map_ms = 0.0, keyframe_ms = 0.0;
 };
 
 // A frame's pose relative to its reference keyframe (ORB-SLAM's trajectory bookkeeping: the
