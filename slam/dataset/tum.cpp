@@ -1,6 +1,7 @@
 // TUM RGB-D layout: rgb.txt and depth.txt ("timestamp path" per line), optionally
 // associations.txt ("t_rgb rgb_path t_depth depth_path"), groundtruth.txt in TUM trajectory
-// format, depth PNGs of 16 bit with 5000 units per metre.
+// format, depth PNGs of 16 bit with 5000 units per metre. coloc's recorder and twin add
+// imu.txt ("t gx gy gz ax ay az": rad/s and m/s^2 in the IMU frame), read when present.
 
 #include <algorithm>
 #include <filesystem>
@@ -52,6 +53,7 @@ class TumSequence final : public Sequence {
     if (std::filesystem::exists(dir / "groundtruth.txt")) {
       ground_truth_ = read_tum_trajectory(dir / "groundtruth.txt");
     }
+    if (std::filesystem::exists(dir / "imu.txt")) read_imu(dir / "imu.txt");
   }
 
   std::string format() const override { return "tum"; }
@@ -83,6 +85,20 @@ class TumSequence final : public Sequence {
       entries_.push_back(
           {parse_double(file, row, 0), row.fields[1], parse_double(file, row, 2), row.fields[3]});
     }
+  }
+
+  void read_imu(const std::filesystem::path& file) {
+    for (const auto& row : read_text_table(file)) {
+      ImuSample sample;
+      sample.timestamp = parse_double(file, row, 0);
+      for (int k = 0; k < 3; ++k) {
+        sample.gyro(k) = parse_double(file, row, 1 + k);
+        sample.accel(k) = parse_double(file, row, 4 + k);
+      }
+      imu_.push_back(sample);
+    }
+    std::stable_sort(imu_.begin(), imu_.end(),
+                     [](const auto& a, const auto& b) { return a.timestamp < b.timestamp; });
   }
 
   // Order-preserving nearest-timestamp pairing of rgb.txt and depth.txt (see

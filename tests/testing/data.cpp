@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cstdlib>
 #include <string>
 
@@ -21,7 +23,9 @@ std::filesystem::path shared_data(const std::filesystem::path& relative) {
 
 std::filesystem::path temp_dir(const std::string& name) {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  std::string unique = name;
+  // ctest runs every test in its own process, several at once: the process id keeps two
+  // processes (e.g. two suites' SetUpTestSuite, where there is no current test) apart.
+  std::string unique = name + "_" + std::to_string(::getpid());
   if (info != nullptr) unique += std::string("_") + info->test_suite_name() + "_" + info->name();
   std::filesystem::path dir = std::filesystem::temp_directory_path() / "coloc_tests" / unique;
   std::filesystem::remove_all(dir);

@@ -116,6 +116,20 @@ TEST(Sequence, ErrorsNameTheFile) {
     EXPECT_NE(e.context().file.find("depth.txt"), std::string::npos);
   }
   EXPECT_THROW(open_sequence(dir / "nothing"), Error);
+  std::ofstream(dir / "depth.txt") << "1.001 depth/missing.png\n";
+  std::ofstream(dir / "imu.txt") << "# t gx gy gz ax ay az\n0.995 0.1 0.2 0.3 0 0 9.81\n"
+                                 << "0.990 0 0 0 0 0 9.8\n1.0 0 0 x 0 0 9.8\n";
+  try {
+    open_sequence(dir);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().line, 4);  // the bad IMU row is named
+  }
+  std::ofstream(dir / "imu.txt") << "0.995 0.1 0.2 0.3 0 0 9.81\n0.990 0 0 0 0 0 9.8\n";
+  const auto with_imu = open_sequence(dir);
+  ASSERT_EQ(with_imu->imu().size(), 2u);
+  EXPECT_DOUBLE_EQ(with_imu->imu()[0].timestamp, 0.990);  // sorted by time
+  EXPECT_DOUBLE_EQ(with_imu->imu()[1].gyro.y(), 0.2);
   EXPECT_THROW(open_sequence(testing::temp_dir("empty_seq")), Error);
 }
 
