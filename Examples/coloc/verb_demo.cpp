@@ -1,8 +1,11 @@
-// coloc demo: runs what the system can do end to end, on data the project generates and on the
-// shared real recordings when present, and says what it did. Each step is a function that
-// prints its own summary; a failing step fails the demo (exit 1).
+// coloc demo: runs what the system can do end to end, on data the project generates (the
+// digital twin) and on the shared real recordings when present, and says what it did. The
+// foundation steps run in-process; the pipeline steps run this program's own verbs, printing
+// each command first so a user can repeat any step by hand. A failing step fails the demo.
 
+#include <spawn.h>
 #include <spdlog/spdlog.h>
+#include <sys/wait.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -23,7 +26,33 @@ namespace {
 struct DemoArgs {
   std::string data_dir;
   std::string out_dir = "coloc_demo_out";
+  std::string preset = "room";
+  int seed = 1;
+  bool skip_twin = false;
 };
+
+std::filesystem::path source_dir() { return COLOC_SOURCE_DIR; }
+
+// Runs `coloc ARGS...` (this very executable) and waits; throws CliFailure when it fails.
+void run_verb(const std::vector<std::string>& args) {
+  std::string shown = "coloc";
+  for (const auto& a : args) shown += " " + a;
+  std::printf("  $ %s\n", shown.c_str());
+  std::fflush(stdout);
+  std::vector<std::string> argv_store = {"coloc"};
+  argv_store.insert(argv_store.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : argv_store) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  if (posix_spawn(&pid, "/proc/self/exe", nullptr, nullptr, argv.data(), environ) != 0) {
+    throw CliFailure("cannot start: " + shown);
+  }
+  int status = 0;
+  if (waitpid(pid, &status, 0) < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+    throw CliFailure("step failed: " + shown);
+  }
+}
 
 std::filesystem::path default_data_dir() {
   if (const char* env = std::getenv("COLOC_DATA"); env != nullptr && *env != '\0') return env;
@@ -113,6 +142,62 @@ void demo_evaluation(const std::filesystem::path& data, const std::filesystem::p
       (out / "perturbed_groundtruth.txt").c_str());
 }
 
+// The pipeline on the digital twin: scan, markers, SLAM, evaluation.
+void demo_twin(const DemoArgs& a, const std::filesystem::path& out, int& step) {
+  const std::filesystem::path twin = out / ("twin_" + a.preset);
+  const std::string vocabulary = (source_dir() / "Vocabulary" / "coloc_orb_k10_L5.cvoc").string();
+  step_header(++step, "Digital twin '" + a.preset + "': building, laser scan, RGB-D walk, IMU, headset");
+  if (std::filesystem::exists(twin / "scan" / "scan.e57")) {
+    std::printf("  %s exists: reused (delete it to regenerate)\n", twin.c_str());
+  } else {
+    run_verb({"twin", "generate", "--preset", a.preset, "--seed", std::to_string(a.seed), "--out",
+              twin.string()});
+  }
+  step_header(++step, "E57 laser scan (our own reader)");
+  run_verb({"e57", "info", (twin / "scan" / "scan.e57").string()});
+  step_header(++step, "Markers in the scanner's cube-face images, against the twin's ground truth");
+  run_verb({"scan-markers", (twin / "scan" / "scan.e57").string(), "--dictionary", "DICT_4X4_50",
+            "--size", "0.1675", "--out", (out / "markers.yaml").string(), "--truth",
+            (twin / "groundtruth" / "markers.txt").string()});
+  step_header(++step, "RGB-D SLAM on the twin's walk, and its accuracy");
+  run_verb({"map", "--sequence", (twin / "sequence").string(), "--config",
+            (twin / "sequence" / "camera.yaml").string(), "--vocabulary", vocabulary,
+            "--trajectory", (out / "twin_trajectory.txt").string()});
+  run_verb({"eval", "ate", (twin / "sequence" / "groundtruth.txt").string(),
+            (out / "twin_trajectory.txt").string(), "--plot", (out / "twin_ate.png").string()});
+}
+
+// SLAM on a real recording (TUM fr1/xyz) with its motion-capture ground truth.
+void demo_real_slam(const std::filesystem::path& data, const std::filesystem::path& out,
+                    int& step) {
+  const auto dir = data / "tum_fr1_xyz_37f";
+  step_header(++step, "RGB-D SLAM on real data (TUM fr1/xyz, Kinect v1)");
+  if (!std::filesystem::exists(dir)) {
+    std::printf("  %s not present, skipped\n", dir.c_str());
+    return;
+  }
+  run_verb({"map", "--sequence", dir.string(), "--config",
+            (source_dir() / "Examples" / "RGB-D" / "TUM1.yaml").string(), "--vocabulary",
+            (source_dir() / "Vocabulary" / "coloc_orb_k10_L5.cvoc").string(), "--trajectory",
+            (out / "tum_fr1_xyz_trajectory.txt").string()});
+  run_verb({"eval", "ate", (dir / "groundtruth.txt").string(),
+            (out / "tum_fr1_xyz_trajectory.txt").string(), "--plot",
+            (out / "tum_fr1_xyz_ate.png").string()});
+}
+
+// AX=XB calibration of a marker on a VR controller, with 10 % bad registrations.
+void demo_handeye(const std::filesystem::path& out, int& step) {
+  step_header(++step, "Hand-eye calibration (marker on a VR controller), 10 % outlier registrations");
+  run_verb({"handeye", "simulate", "--out", (out / "handeye").string(), "--outliers", "0.1"});
+  run_verb({"handeye", "solve", "--pairs", (out / "handeye" / "pairs.csv").string(), "--robust"});
+}
+
+// Drift fusion of a 90 Hz headset with global poses, against the paper's filter.
+void demo_fusion(int& step) {
+  step_header(++step, "Fusion: drifting 90 Hz headset + 20 Hz global poses (simulated session)");
+  run_verb({"bench", "fusion", "--duration", "60"});
+}
+
 void run_demo(const DemoArgs& a) {
   const std::filesystem::path data =
       a.data_dir.empty() ? default_data_dir() : std::filesystem::path(a.data_dir);
@@ -127,7 +212,12 @@ void run_demo(const DemoArgs& a) {
   demo_sequences(data);
   step_header(3, "Trajectory evaluation (ATE with Sim3 alignment)");
   demo_evaluation(data, out);
-  std::printf("\ncoloc demo: done\n");
+  int step = 3;
+  if (!a.skip_twin) demo_twin(a, out, step);
+  demo_real_slam(data, out, step);
+  demo_handeye(out, step);
+  demo_fusion(step);
+  std::printf("\ncoloc demo: done; outputs in %s\n", std::filesystem::absolute(out).c_str());
 }
 
 }  // namespace
@@ -139,6 +229,11 @@ void add_demo_verb(CLI::App& app) {
   demo.add_option("--data", args->data_dir,
                   "Shared real data (default $COLOC_DATA or ../shared/data)");
   demo.add_option("--out", args->out_dir, "Output folder")->capture_default_str();
+  demo.add_option("--preset", args->preset, "Digital twin preset")
+      ->check(CLI::IsMember({"room", "floor", "building"}))
+      ->capture_default_str();
+  demo.add_option("--seed", args->seed, "Digital twin seed")->capture_default_str();
+  demo.add_flag("--skip-twin", args->skip_twin, "Skip the digital-twin pipeline");
   demo.callback([args] { run_demo(*args); });
 }
 

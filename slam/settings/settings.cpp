@@ -59,10 +59,21 @@ class KeyReader {
     return static_cast<std::string>(node);
   }
 
-  // A scalar of any type, as text (for extension sections that their users type-check).
+  // A scalar of any type, as text (for extension sections that their users type-check);
+  // matrices (IMU.T_b_c1) as their row-major numbers separated by spaces.
   std::string scalar_text(const std::string& key) {
     const cv::FileNode node = storage_[key];
     used_.insert(key);
+    if (node.isMap() && !node["data"].empty()) {
+      std::string out;
+      for (const auto& v : node["data"]) {
+        char buf[32];
+        std::snprintf(buf, sizeof(buf), "%.17g", static_cast<double>(v));
+        if (!out.empty()) out += ' ';
+        out += buf;
+      }
+      return out;
+    }
     if (node.isString()) return static_cast<std::string>(node);
     if (node.isInt()) return std::to_string(static_cast<int>(node));
     if (node.isReal()) {
@@ -189,7 +200,7 @@ Settings load_settings(const std::filesystem::path& path) {
 
   for (const auto& key : keys.keys()) {
     if (keys.used(key) || starts_with(key, "Viewer.")) continue;
-    if (starts_with(key, "Fusion.") || starts_with(key, "OSC.")) {
+    if (starts_with(key, "Fusion.") || starts_with(key, "OSC.") || starts_with(key, "IMU.")) {
       s.extensions[key] = keys.scalar_text(key);
       continue;
     }

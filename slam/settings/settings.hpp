@@ -7,7 +7,7 @@
 //  - both: Camera.type ("PinHole" | "KannalaBrandt8"), Camera.width/height, Camera.fps,
 //    Camera.RGB, ORBextractor.*; Viewer.* is ignored.
 // coloc's own additions live in the same file under their own prefixes: Markers.*, Fusion.*,
-// OSC.*. Any other key is reported as a warning naming it; a missing required key or a value of
+// OSC.*; ORB-SLAM3's IMU.* block is kept for the IMU users. Any other key is reported as a warning naming it; a missing required key or a value of
 // the wrong type is a coloc::Error naming the key and the file.
 
 #include <filesystem>
@@ -52,8 +52,8 @@ struct Settings {
   std::optional<DepthSettings> depth;
   OrbSettings orb;
   MarkerSettings markers;
-  // Fusion.* and OSC.* values as written (key -> scalar text); the verbs that use them check
-  // their keys and types.
+  // Fusion.*, OSC.* and IMU.* values as written (key -> scalar text, matrices as their numbers);
+  // the verbs that use them check their keys and types.
   std::map<std::string, std::string> extensions;
   // Unknown keys, in file order (also logged as warnings).
   std::vector<std::string> warnings;

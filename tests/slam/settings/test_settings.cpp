@@ -72,7 +72,9 @@ TEST(Settings, FisheyeOwnSectionsAndUnknownKeys) {
                           "Camera1.cy: 256.8\nCamera1.k1: 0.003\nCamera1.k2: 0.0007\n"
                           "Camera1.k3: -0.002\nCamera1.k4: 0.0002\nMarkers.dictionary: "
                           "\"DICT_APRILTAG_36h11\"\nMarkers.size: 0.2\nFusion.processNoise: "
-                          "0.002\nOSC.port: 9000\nCamera.fsp: 30\n");
+                          "0.002\nOSC.port: 9000\nCamera.fsp: 30\nIMU.NoiseGyro: 1.7e-4\n"
+                          "IMU.T_b_c1: !!opencv-matrix\n  rows: 2\n  cols: 2\n  dt: f\n"
+                          "  data: [1.0, 0.5, -2.0, 0.25]\n");
   const Settings s = load_settings(path);
   ASSERT_TRUE(std::holds_alternative<KannalaBrandtCamera>(s.camera));
   EXPECT_DOUBLE_EQ(std::get<KannalaBrandtCamera>(s.camera).distortion[3], 0.0002);
@@ -81,6 +83,8 @@ TEST(Settings, FisheyeOwnSectionsAndUnknownKeys) {
   EXPECT_DOUBLE_EQ(s.markers.size, 0.2);
   EXPECT_EQ(s.extensions.at("Fusion.processNoise"), "0.002");
   EXPECT_EQ(s.extensions.at("OSC.port"), "9000");
+  EXPECT_EQ(s.extensions.at("IMU.NoiseGyro"), "0.00017000000000000001");
+  EXPECT_EQ(s.extensions.at("IMU.T_b_c1"), "1 0.5 -2 0.25");
   ASSERT_EQ(s.warnings.size(), 1u);  // the misspelt key is named
   EXPECT_EQ(s.warnings[0], "Camera.fsp");
 }
