@@ -82,10 +82,20 @@ RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& 
   return r;
 }
 
+// The settings file's DepthMapFactor says how raw depth becomes metres (TUM 5000 per metre,
+// RealSense and the twin 1000): the sequence is read with it, not with the format's default.
+std::unique_ptr<dataset::Sequence> open_for_settings(const fs::path& dir,
+                                                     const settings::Settings& settings) {
+  dataset::SequenceOptions options;
+  if (settings.depth) options.depth_scale = settings.depth->depth_map_factor;
+  return dataset::open_sequence(dir, options);
+}
+
 void run_map(const MapArgs& args) {
-  const auto sequence = dataset::open_sequence(args.sequence);
-  const fs::path config = args.config.empty() ? default_config(*sequence) : args.config;
+  const fs::path config =
+      args.config.empty() ? default_config(*dataset::open_sequence(args.sequence)) : args.config;
   const auto settings = settings::load_settings(config);
+  const auto sequence = open_for_settings(args.sequence, settings);
   const auto vocabulary =
       slam::bow::Vocabulary::load(args.vocabulary.empty() ? default_vocabulary() : args.vocabulary);
   const RunResult r = run_slam(*sequence, settings, vocabulary, args.sequential);
@@ -111,9 +121,10 @@ void run_map(const MapArgs& args) {
 }
 
 void run_bench(const MapArgs& args) {
-  const auto sequence = dataset::open_sequence(args.sequence);
-  const fs::path config = args.config.empty() ? default_config(*sequence) : args.config;
+  const fs::path config =
+      args.config.empty() ? default_config(*dataset::open_sequence(args.sequence)) : args.config;
   const auto settings = settings::load_settings(config);
+  const auto sequence = open_for_settings(args.sequence, settings);
   const auto vocabulary =
       slam::bow::Vocabulary::load(args.vocabulary.empty() ? default_vocabulary() : args.vocabulary);
   std::printf("sequence %s (%zu frames), settings %s, %s mapping\n", args.sequence.string().c_str(),
