@@ -110,17 +110,7 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
       }
       state_ = ok ? TrackingState::kOk : TrackingState::kLost;
     }
-    if (state_ != TrackingState::kNotInitialized) {
-      FrameRecord rec;
-      rec.timestamp = timestamp;
-      rec.tracked = ok;
-      const map::Keyframe* ref = shared_.map.keyframe(reference_);
-      if (ok && ref) {
-        rec.reference = reference_;
-        rec.cam_from_reference = current_.cam_from_world * ref->cam_from_world().inverse();
-      }
-      records_.push_back(rec);
-    }
+    if (state_ != TrackingState::kNotInitialized) record_frame(ok);
     if (make_keyframe) {
       Stopwatch stage;
       create_keyframe(grey);
@@ -143,6 +133,18 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
   }
   result.track_ms = watch.elapsed_ms();
   return result;
+}
+
+void Tracker::record_frame(bool tracked) {
+  FrameRecord rec;
+  rec.timestamp = current_.timestamp;
+  rec.tracked = tracked;
+  const map::Keyframe* ref = shared_.map.keyframe(reference_);
+  if (tracked && ref) {
+    rec.reference = reference_;
+    rec.cam_from_reference = current_.cam_from_world * ref->cam_from_world().inverse();
+  }
+  records_.push_back(rec);
 }
 
 bool Tracker::initialize() {

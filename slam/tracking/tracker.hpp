@@ -85,6 +85,7 @@ class Tracker {
   bool need_keyframe() const;
   void create_keyframe(const cv::Mat& grey);
   void compute_bow(frame::Frame& frame) const;
+  void record_frame(bool tracked);  // appends current_ to records_ (map lock held)
 
   map::SharedMap& shared_;
   mapping::LocalMapper& mapper_;
