@@ -101,10 +101,20 @@ NoiseModel noise_from_residuals(std::span<const Registration> registrations,
   m.device_rotation = kTiny;
   m.device_translation = kTiny;
   m.marker_rotation = std::max(kTiny, std::sqrt(correction * rotation / (3.0 * n)));
-  m.marker_translation = std::max(kTiny, std::sqrt(correction * lateral / (2.0 * n)));
-  const double depth_sigma = std::sqrt(correction * depth / n);
-  m.marker_depth = std::sqrt(
-      std::max(0.0, depth_sigma * depth_sigma - m.marker_translation * m.marker_translation));
+  // A separate depth term costs n degrees of freedom of the variance estimate: with ~10
+  // registrations a chance excess of the depth residuals would weight depth down and lose
+  // accuracy, so depth gets its own standard deviation only when its variance exceeds the
+  // lateral one significantly (F-test: F(n, 2n) stays below ~2.5 at 95 % for n >= 6).
+  constexpr double kDepthSignificance = 2.5;
+  const double lateral_variance = lateral / (2.0 * n);
+  const double depth_variance = depth / n;
+  if (depth_variance > kDepthSignificance * lateral_variance) {
+    m.marker_translation = std::max(kTiny, std::sqrt(correction * lateral_variance));
+    m.marker_depth = std::sqrt(correction * std::max(0.0, depth_variance - lateral_variance));
+  } else {
+    m.marker_translation = std::max(kTiny, std::sqrt(correction * (lateral + depth) / (3.0 * n)));
+    m.marker_depth = 0.0;
+  }
   return m;
 }
 
@@ -171,7 +181,9 @@ RefineResult refine(std::span<const Registration> registrations, const std::vect
   ceres::Problem problem(problem_options);
   ceres::EigenQuaternionManifold quaternion_manifold;
   ceres::HuberLoss huber(options.huber_delta > 0 ? options.huber_delta : 1.0);
-  ceres::LossFunction* loss = options.huber_delta > 0 ? &huber : nullptr;
+  // Huber in robust mode only: at Gaussian noise it down-weights ~17 % of the inlier blocks
+  // (chi^2 with 6 dof exceeds 3^2 that often) and costs ~2 % accuracy against plain ML.
+  ceres::LossFunction* loss = options.robust && options.huber_delta > 0 ? &huber : nullptr;
   int residual_blocks = 0;
   for (std::size_t k = 0; k < registrations.size(); ++k) {
     if (!used[k]) continue;
