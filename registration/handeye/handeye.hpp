@@ -97,8 +97,10 @@ struct Options {
   double max_bad_pair_fraction = 0.5;
   bool robust = false;  // RANSAC over registrations, then refit on the inliers
   RansacOptions ransac;
-  bool refine = true;        // Ceres refinement of X, vr_from_camera (and sigma) jointly
-  double huber_delta = 3.0;  // robust loss on noise-normalized residuals; <= 0 disables it
+  bool refine = true;  // Ceres refinement of X, vr_from_camera (and sigma) jointly
+  // Huber loss on noise-normalized residuals in robust mode (plain least squares, i.e. maximum
+  // likelihood, otherwise); <= 0 disables it.
+  double huber_delta = 3.0;
   int max_refine_iterations = 50;
   NoiseModel noise;
   // Re-estimate the noise model from the residuals and refine again (rounds of variance

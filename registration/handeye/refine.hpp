@@ -31,6 +31,17 @@ RefineResult refine(std::span<const Registration> registrations, const std::vect
                     const SE3& device_from_marker, const SE3& vr_from_camera, double sigma,
                     const Options& options);
 
+// Cramer-Rao bound of X = device_from_marker: the covariance (layout and units as
+// Summary::device_from_marker_covariance) that bounds every unbiased estimator, from the Fisher
+// information of refine()'s residuals evaluated at the given unknowns (the truth, in a
+// simulation) with `noise` taken as the true noise (no rescaling by residuals). Empty when the
+// information is singular or there are too few registrations.
+std::optional<Matrix6d> cramer_rao_bound(std::span<const Registration> registrations,
+                                         const std::vector<bool>& used,
+                                         const SE3& device_from_marker, const SE3& vr_from_camera,
+                                         double sigma, const NoiseModel& noise,
+                                         bool estimate_scale = false);
+
 // The noise model the residuals of a solution imply (variance component estimation): rotation,
 // lateral and depth (along the viewing ray) standard deviations of the marker pose, corrected for
 // the degrees of freedom, with the device terms folded in. Needs >= 3 used registrations.

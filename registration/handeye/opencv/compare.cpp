@@ -1,9 +1,12 @@
 #include "registration/handeye/opencv/compare.hpp"
 
+#include <Eigen/Cholesky>
 #include <array>
 #include <numbers>
 #include <opencv2/core/eigen.hpp>
+#include <random>
 
+#include "registration/handeye/refine.hpp"
 #include "slam/core/error.hpp"
 
 namespace coloc::registration::handeye {
@@ -20,6 +23,28 @@ cv::Mat to_cv(const Eigen::Vector3d& v) {
   cv::Mat out;
   cv::eigen2cv(v, out);
   return out;
+}
+
+// Adds kBoundDraws error norms of X drawn from N(0, Cramer-Rao bound) for this session, so that
+// the bound's median and p90 read like those of an efficient unbiased estimator.
+void add_bound_draws(const Simulation& sim, const SimulationOptions& o, MethodErrors& out) {
+  constexpr int kBoundDraws = 32;
+  const std::vector<bool> used(sim.registrations.size(), true);
+  const std::optional<Matrix6d> bound = cramer_rao_bound(
+      sim.registrations, used, sim.device_from_marker, sim.vr_from_camera, 1.0, noise_model(o));
+  if (!bound) return;
+  const Eigen::LLT<Matrix6d> llt(*bound);
+  if (llt.info() != Eigen::Success) return;
+  std::mt19937_64 rng(o.seed);
+  std::normal_distribution<double> normal;
+  for (int k = 0; k < kBoundDraws; ++k) {
+    Vector6d z;
+    for (int i = 0; i < 6; ++i)
+      z[i] = normal(rng);
+    const Vector6d e = llt.matrixL() * z;  // (d_t, d_theta)
+    out.translation.push_back(e.head<3>().norm());
+    out.rotation.push_back(e.tail<3>().norm());
+  }
 }
 
 }  // namespace
@@ -64,6 +89,9 @@ std::vector<MethodErrors> compare_methods(const SimulationOptions& base, int tri
     for (const OpencvMethod& m : opencv_methods())
       out.push_back({m.name, {}, {}, {}});
   }
+  // The bound holds for outlier-free data with a known scale.
+  const bool with_bound = with_opencv && base.outlier_fraction == 0.0 && !options.estimate_scale;
+  if (with_bound) out.push_back({std::string(kCramerRaoName), {}, {}, {}});
   for (int trial = 0; trial < trials; ++trial) {
     SimulationOptions o = base;
     o.seed = base.seed + static_cast<std::uint64_t>(trial);
@@ -89,6 +117,7 @@ std::vector<MethodErrors> compare_methods(const SimulationOptions& base, int tri
       out[m + 1].rotation.push_back(e.rotation);
       out[m + 1].translation.push_back(e.translation);
     }
+    if (with_bound) add_bound_draws(sim, o, out.back());
   }
   return out;
 }

@@ -25,24 +25,44 @@ void print(const std::vector<MethodErrors>& methods, const char* title) {
   }
 }
 
+bool is_opencv(const MethodErrors& m) {
+  return m.name.rfind("opencv-", 0) == 0;
+}
+
+const MethodErrors& bound(const std::vector<MethodErrors>& methods) {
+  for (const MethodErrors& m : methods)
+    if (m.name == kCramerRaoName) return m;
+  ADD_FAILURE() << "no Cramer-Rao row";
+  return methods.front();
+}
+
 // Strictly lower median errors than every OpenCV method.
 void expect_better_than_opencv(const std::vector<MethodErrors>& methods) {
-  for (std::size_t m = 1; m < methods.size(); ++m) {
-    EXPECT_LT(median(methods[0].rotation), median(methods[m].rotation)) << methods[m].name;
-    EXPECT_LT(median(methods[0].translation), median(methods[m].translation)) << methods[m].name;
+  for (const MethodErrors& m : methods) {
+    if (!is_opencv(m)) continue;
+    EXPECT_LT(median(methods[0].rotation), median(m.rotation)) << m.name;
+    EXPECT_LT(median(methods[0].translation), median(m.translation)) << m.name;
   }
 }
 
-// At isotropic noise the all-pairs linear solution is OpenCV's PARK (OpenCV also uses all pairs
-// i < j) and close to the Cramer-Rao bound, so the joint refinement can only tie with PARK and
-// HORAUD and ANDREFF there: we assert parity (median within 5 %) with every method and a strict
-// win over TSAI and DANIILIDIS.
+// At isotropic Gaussian noise OpenCV's PARK (all pairs i < j, like the paper's linear stage) is
+// itself at the Cramer-Rao bound: its median and RMS errors are within ~1 % of the bound's, as
+// are ours (maximum likelihood over the absolute poses). No unbiased estimator can then beat it
+// by more than the sampling noise of a 100-trial median (~4 %), so against PARK, HORAUD and
+// ANDREFF we assert parity (median within 5 %) and the bound itself in AtTheCramerRaoBound.
 void expect_at_least_par(const std::vector<MethodErrors>& methods) {
-  for (std::size_t m = 1; m < methods.size(); ++m) {
-    EXPECT_LT(median(methods[0].rotation), 1.05 * median(methods[m].rotation)) << methods[m].name;
-    EXPECT_LT(median(methods[0].translation), 1.05 * median(methods[m].translation))
-        << methods[m].name;
+  for (const MethodErrors& m : methods) {
+    if (!is_opencv(m)) continue;
+    EXPECT_LT(median(methods[0].rotation), 1.05 * median(m.rotation)) << m.name;
+    EXPECT_LT(median(methods[0].translation), 1.05 * median(m.translation)) << m.name;
   }
+}
+
+// Median errors within `tolerance` (relative) of those of an efficient estimator.
+void expect_at_bound(const std::vector<MethodErrors>& methods, double tolerance) {
+  const MethodErrors& b = bound(methods);
+  EXPECT_LT(median(methods[0].rotation), (1.0 + tolerance) * median(b.rotation));
+  EXPECT_LT(median(methods[0].translation), (1.0 + tolerance) * median(b.translation));
 }
 
 TEST(HandeyeVsOpencv, OpencvProtocol) {
@@ -60,6 +80,27 @@ TEST(HandeyeVsOpencv, OpencvProtocol) {
   }
 }
 
+// 1000 sessions at the protocol noise: ours is at the Cramer-Rao bound (the best any unbiased
+// estimator can do on these sessions). On this seed ours has the lowest medians of all (rotation
+// 0.1035 deg vs PARK 0.1042, translation 4.028 mm vs 4.061), but the expected gap to PARK, HORAUD
+// and ANDREFF is below 1 % (2000-session runs), under the sampling noise of any affordable trial
+// count, so those three are asserted within 2 % and TSAI and DANIILIDIS strictly.
+TEST(HandeyeVsOpencv, AtTheCramerRaoBound) {
+  SimulationOptions s;
+  s.seed = 7000;
+  const auto methods = compare_methods(s, 1000, Options{}, "ours", true);
+  print(methods, "OpenCV protocol, 1000 trials of 10 registrations");
+  expect_at_bound(methods, 0.03);
+  for (const MethodErrors& m : methods) {
+    if (!is_opencv(m)) continue;
+    const bool near_bound =
+        m.name != std::string("opencv-TSAI") && m.name != std::string("opencv-DANIILIDIS");
+    const double margin = near_bound ? 1.02 : 1.0;
+    EXPECT_LT(median(methods[0].rotation), margin * median(m.rotation)) << m.name;
+    EXPECT_LT(median(methods[0].translation), margin * median(m.translation)) << m.name;
+  }
+}
+
 // PnP measures depth worst: with 15 mm extra noise along the viewing ray the estimated noise
 // model lets the refinement weight it down, and ours wins on translation against every method.
 TEST(HandeyeVsOpencv, DepthDominatedPnpNoise) {
@@ -69,9 +110,10 @@ TEST(HandeyeVsOpencv, DepthDominatedPnpNoise) {
   const auto methods = compare_methods(s, 100, Options{}, "ours", true);
   print(methods, "OpenCV protocol + 15 mm depth noise");
   expect_at_least_par(methods);
-  for (std::size_t m = 1; m < methods.size(); ++m) {
-    EXPECT_LT(median(methods[0].translation), 0.85 * median(methods[m].translation))
-        << methods[m].name;
+  EXPECT_LT(median(methods[0].translation), 1.03 * median(bound(methods).translation));
+  for (const MethodErrors& m : methods) {
+    if (!is_opencv(m)) continue;
+    EXPECT_LT(median(methods[0].translation), 0.85 * median(m.translation)) << m.name;
   }
 }
 
