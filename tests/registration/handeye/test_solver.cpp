@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <numbers>
+#include <random>
 
 #include "registration/handeye/compose.hpp"
 #include "registration/handeye/handeye.hpp"
 #include "registration/handeye/linear.hpp"
+#include "registration/handeye/refine.hpp"
 #include "registration/handeye/simulate.hpp"
 #include "slam/core/error.hpp"
 
@@ -204,6 +206,66 @@ TEST(HandeyeOptions, CheckNamesTheField) {
   SimulationOptions so;
   so.scale = 0;
   EXPECT_THROW(so.check(), Error);
+}
+
+// The Cramer-Rao bound is evaluated at the truth, so it does not depend on the noise draws: it
+// scales with the noise variance, and the empirical scatter of our estimates over many noise
+// draws on one geometry is at the bound (maximum likelihood is efficient here).
+TEST(HandeyeBound, ScalesWithNoiseAndMatchesTheScatter) {
+  SimulationOptions o;
+  o.seed = 11;
+  const Simulation sim = simulate(o);
+  const std::vector<bool> used(sim.registrations.size(), true);
+  NoiseModel noise = noise_model(o);
+  const auto bound = cramer_rao_bound(sim.registrations, used, sim.device_from_marker,
+                                      sim.vr_from_camera, 1.0, noise);
+  ASSERT_TRUE(bound.has_value());
+  EXPECT_GT((bound->topLeftCorner<3, 3>().trace()), 0.0);
+  noise.device_rotation *= 2;
+  noise.device_translation *= 2;
+  noise.marker_rotation *= 2;
+  noise.marker_translation *= 2;
+  const auto doubled = cramer_rao_bound(sim.registrations, used, sim.device_from_marker,
+                                        sim.vr_from_camera, 1.0, noise);
+  ASSERT_TRUE(doubled.has_value());
+  EXPECT_LT((*doubled - 4.0 * *bound).norm(), 1e-9 * bound->norm() + 1e-15);
+
+  // One geometry (a noise-free session), many noise draws of the protocol noise made here.
+  SimulationOptions clean = o;
+  clean.device_rotation_noise = clean.device_translation_noise = 0.0;
+  clean.marker_rotation_noise = clean.marker_translation_noise = 0.0;
+  const Simulation truth = simulate(clean);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> normal;
+  auto draw = [&](double s) {
+    Eigen::Vector3d v;
+    for (int a = 0; a < 3; ++a)
+      v[a] = s * normal(rng);
+    return v;
+  };
+  double rotation = 0.0, translation = 0.0;
+  constexpr int kDraws = 400;
+  for (int k = 0; k < kDraws; ++k) {
+    std::vector<Registration> noisy = truth.registrations;
+    for (Registration& r : noisy) {
+      r.vr_from_device = SE3(r.vr_from_device.so3() * SO3::exp(draw(o.device_rotation_noise)),
+                             r.vr_from_device.translation() + draw(o.device_translation_noise));
+      r.camera_from_marker =
+          SE3(r.camera_from_marker.so3() * SO3::exp(draw(o.marker_rotation_noise)),
+              r.camera_from_marker.translation() + draw(o.marker_translation_noise));
+    }
+    const PoseError e =
+        pose_error(solve(noisy, Options{}).device_from_marker, truth.device_from_marker);
+    rotation += e.rotation * e.rotation / kDraws;
+    translation += e.translation * e.translation / kDraws;
+  }
+  const auto truth_bound = cramer_rao_bound(truth.registrations, used, truth.device_from_marker,
+                                            truth.vr_from_camera, 1.0, noise_model(o));
+  ASSERT_TRUE(truth_bound.has_value());
+  // 400 draws: the mean square is known to ~7 % (chi^2 with ~1200 dof), plus the finite-sample
+  // excess of the estimated noise weights.
+  EXPECT_NEAR(std::sqrt(translation / truth_bound->topLeftCorner<3, 3>().trace()), 1.0, 0.12);
+  EXPECT_NEAR(std::sqrt(rotation / truth_bound->bottomRightCorner<3, 3>().trace()), 1.0, 0.12);
 }
 
 }  // namespace
