@@ -91,14 +91,28 @@ std::unique_ptr<dataset::Sequence> open_for_settings(const fs::path& dir,
   return dataset::open_sequence(dir, options);
 }
 
-void run_map(const MapArgs& args) {
-  const fs::path config =
+// What `coloc map` and `coloc bench track` both start from.
+struct MapInputs {
+  fs::path config;
+  settings::Settings settings;
+  std::unique_ptr<dataset::Sequence> sequence;
+  slam::bow::Vocabulary vocabulary;
+};
+
+MapInputs load_inputs(const MapArgs& args) {
+  MapInputs in;
+  in.config =
       args.config.empty() ? default_config(*dataset::open_sequence(args.sequence)) : args.config;
-  const auto settings = settings::load_settings(config);
-  const auto sequence = open_for_settings(args.sequence, settings);
-  const auto vocabulary =
+  in.settings = settings::load_settings(in.config);
+  in.sequence = open_for_settings(args.sequence, in.settings);
+  in.vocabulary =
       slam::bow::Vocabulary::load(args.vocabulary.empty() ? default_vocabulary() : args.vocabulary);
-  const RunResult r = run_slam(*sequence, settings, vocabulary, args.sequential);
+  return in;
+}
+
+void run_map(const MapArgs& args) {
+  const MapInputs in = load_inputs(args);
+  const RunResult r = run_slam(*in.sequence, in.settings, in.vocabulary, args.sequential);
   write_tum_trajectory(args.trajectory, r.trajectory);
   if (!args.keyframes.empty()) write_tum_trajectory(args.keyframes, r.keyframes);
   const auto& s = r.summary;
@@ -121,12 +135,8 @@ void run_map(const MapArgs& args) {
 }
 
 void run_bench(const MapArgs& args) {
-  const fs::path config =
-      args.config.empty() ? default_config(*dataset::open_sequence(args.sequence)) : args.config;
-  const auto settings = settings::load_settings(config);
-  const auto sequence = open_for_settings(args.sequence, settings);
-  const auto vocabulary =
-      slam::bow::Vocabulary::load(args.vocabulary.empty() ? default_vocabulary() : args.vocabulary);
+  const MapInputs in = load_inputs(args);
+  const auto& [config, settings, sequence, vocabulary] = in;
   std::printf("sequence %s (%zu frames), settings %s, %s mapping\n", args.sequence.string().c_str(),
               sequence->size(), config.string().c_str(),
               args.sequential ? "sequential" : "concurrent");

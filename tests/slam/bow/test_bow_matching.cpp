@@ -19,6 +19,7 @@
 #include "slam/bow/vocabulary.hpp"
 #include "slam/core/trajectory.hpp"
 #include "slam/features/orb_extractor.hpp"
+#include "tests/testing/cameras.hpp"
 #include "tests/testing/data.hpp"
 
 namespace coloc::slam::bow {
@@ -52,17 +53,7 @@ const T& nearest(const std::vector<T>& v, double t, Time time_of) {
   });
 }
 
-PinholeCamera tum_fr1_camera() {
-  PinholeCamera c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = 517.3;
-  c.fy = 516.5;
-  c.cx = 318.6;
-  c.cy = 255.3;
-  c.distortion = {0.2624, -0.9531, -0.0054, 0.0026, 1.1633};
-  return c;
-}
+using ::coloc::testing::tum_fr1_camera;
 
 fs::path source_dir() {
   if (const char* env = std::getenv("COLOC_SOURCE_DIR"); env != nullptr && *env != '\0') return env;

@@ -11,6 +11,7 @@
 
 #include "slam/core/error.hpp"
 #include "slam/features/orb_extractor.hpp"
+#include "tests/testing/cameras.hpp"
 #include "tests/testing/data.hpp"
 
 namespace coloc::slam::features {
@@ -27,17 +28,7 @@ cv::Mat first_tum_frame(const fs::path& dir) {
   return cv::imread(files.front().string(), cv::IMREAD_GRAYSCALE);
 }
 
-PinholeCamera tum_fr1_camera() {
-  PinholeCamera c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = 517.3;
-  c.fy = 516.5;
-  c.cx = 318.6;
-  c.cy = 255.3;
-  c.distortion = {0.2624, -0.9531, -0.0054, 0.0026, 1.1633};
-  return c;
-}
+using ::coloc::testing::tum_fr1_camera;
 
 float wrap_angle(float a) {
   const auto pi = static_cast<float>(std::numbers::pi);
