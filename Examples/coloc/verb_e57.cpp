@@ -18,6 +18,7 @@
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "e57io/reader.hpp"
+#include "e57io/synthetic.hpp"
 #include "e57io/writer.hpp"
 #include "slam/core/progress.hpp"
 
@@ -306,40 +307,8 @@ double cpu_seconds() {
 
 fs::path generate_synthetic(std::size_t n) {
   const fs::path path = fs::temp_directory_path() / "coloc_bench_e57.e57";
-  using e57::FieldSpec;
-  e57::Writer w(path);
-  w.begin_scan({.name = "synthetic"}, {FieldSpec::scaled(PointField::kCartesianX, 1e-4, -100, 100),
-                                       FieldSpec::scaled(PointField::kCartesianY, 1e-4, -100, 100),
-                                       FieldSpec::scaled(PointField::kCartesianZ, 1e-4, -100, 100),
-                                       FieldSpec::integer(PointField::kIntensity, 0, 2047),
-                                       FieldSpec::integer(PointField::kColorRed, 0, 255),
-                                       FieldSpec::integer(PointField::kColorGreen, 0, 255),
-                                       FieldSpec::integer(PointField::kColorBlue, 0, 255)});
-  e57::PointBuffer p;
   Progress progress("writing synthetic E57", n);
-  for (std::size_t at = 0; at < n;) {
-    const std::size_t k = std::min<std::size_t>(n - at, 1 << 18);
-    p.reset(field_bit(PointField::kCartesianX) | field_bit(PointField::kCartesianY) |
-                field_bit(PointField::kCartesianZ) | field_bit(PointField::kIntensity) |
-                field_bit(PointField::kColorRed) | field_bit(PointField::kColorGreen) |
-                field_bit(PointField::kColorBlue),
-            k);
-    for (std::size_t i = 0; i < k; ++i) {
-      const std::size_t j = at + i;
-      p.cartesian_x[i] = -50.0 + 1e-3 * static_cast<double>(j % 100000);
-      p.cartesian_y[i] = -50.0 + 1e-3 * static_cast<double>((j / 100000) % 100000);
-      p.cartesian_z[i] = 1e-4 * static_cast<double>(j % 30011);
-      p.intensity[i] = static_cast<float>(j % 2048);
-      p.color_red[i] = static_cast<float>(j % 256);
-      p.color_green[i] = static_cast<float>((j / 3) % 256);
-      p.color_blue[i] = static_cast<float>((j / 7) % 256);
-    }
-    w.add_points(p);
-    at += k;
-    progress.advance(k);
-  }
-  w.end_scan();
-  w.close();
+  e57::write_synthetic_scan(path, n, 1 << 18, [&](std::size_t done) { progress.set(done); });
   progress.finish();
   return path;
 }

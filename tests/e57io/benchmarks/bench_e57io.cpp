@@ -9,12 +9,12 @@
 #include <string>
 
 #include "e57io/reader.hpp"
+#include "e57io/synthetic.hpp"
 #include "e57io/writer.hpp"
 
 namespace {
 
 using coloc::e57::field_bit;
-using coloc::e57::FieldSpec;
 using F = coloc::e57::PointField;
 
 std::size_t bench_points() {
@@ -25,36 +25,7 @@ std::size_t bench_points() {
 // A scan on a 1 mm grid with colour and intensity, written in 1 M-point pieces.
 std::filesystem::path synthetic_file(std::size_t n, const std::string& name) {
   const auto path = std::filesystem::temp_directory_path() / name;
-  coloc::e57::Writer w(path);
-  w.begin_scan(
-      {.name = "synthetic"},
-      {FieldSpec::scaled(F::kCartesianX, 1e-4, -100, 100),
-       FieldSpec::scaled(F::kCartesianY, 1e-4, -100, 100),
-       FieldSpec::scaled(F::kCartesianZ, 1e-4, -100, 100),
-       FieldSpec::integer(F::kIntensity, 0, 2047), FieldSpec::integer(F::kColorRed, 0, 255),
-       FieldSpec::integer(F::kColorGreen, 0, 255), FieldSpec::integer(F::kColorBlue, 0, 255)});
-  coloc::e57::PointBuffer p;
-  for (std::size_t at = 0; at < n;) {
-    const std::size_t k = std::min<std::size_t>(n - at, 1'000'000);
-    p.reset(field_bit(F::kCartesianX) | field_bit(F::kCartesianY) | field_bit(F::kCartesianZ) |
-                field_bit(F::kIntensity) | field_bit(F::kColorRed) | field_bit(F::kColorGreen) |
-                field_bit(F::kColorBlue),
-            k);
-    for (std::size_t i = 0; i < k; ++i) {
-      const std::size_t j = at + i;
-      p.cartesian_x[i] = -50.0 + 1e-3 * static_cast<double>(j % 100000);
-      p.cartesian_y[i] = -50.0 + 1e-3 * static_cast<double>((j / 100000) % 100000);
-      p.cartesian_z[i] = 1e-4 * static_cast<double>(j % 30011);
-      p.intensity[i] = static_cast<float>(j % 2048);
-      p.color_red[i] = static_cast<float>(j % 256);
-      p.color_green[i] = static_cast<float>((j / 3) % 256);
-      p.color_blue[i] = static_cast<float>((j / 7) % 256);
-    }
-    w.add_points(p);
-    at += k;
-  }
-  w.end_scan();
-  w.close();
+  coloc::e57::write_synthetic_scan(path, n, 1'000'000);
   return path;
 }
 
