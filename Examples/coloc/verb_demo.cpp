@@ -31,18 +31,22 @@ struct DemoArgs {
   bool skip_twin = false;
 };
 
-std::filesystem::path source_dir() { return COLOC_SOURCE_DIR; }
+std::filesystem::path source_dir() {
+  return COLOC_SOURCE_DIR;
+}
 
 // Runs `coloc ARGS...` (this very executable) and waits; throws CliFailure when it fails.
 void run_verb(const std::vector<std::string>& args) {
   std::string shown = "coloc";
-  for (const auto& a : args) shown += " " + a;
+  for (const auto& a : args)
+    shown += " " + a;
   std::printf("  $ %s\n", shown.c_str());
   std::fflush(stdout);
   std::vector<std::string> argv_store = {"coloc"};
   argv_store.insert(argv_store.end(), args.begin(), args.end());
   std::vector<char*> argv;
-  for (auto& a : argv_store) argv.push_back(a.data());
+  for (auto& a : argv_store)
+    argv.push_back(a.data());
   argv.push_back(nullptr);
   pid_t pid = 0;
   if (posix_spawn(&pid, "/proc/self/exe", nullptr, nullptr, argv.data(), environ) != 0) {
@@ -146,7 +150,8 @@ void demo_evaluation(const std::filesystem::path& data, const std::filesystem::p
 void demo_twin(const DemoArgs& a, const std::filesystem::path& out, int& step) {
   const std::filesystem::path twin = out / ("twin_" + a.preset);
   const std::string vocabulary = (source_dir() / "Vocabulary" / "coloc_orb_k10_L5.cvoc").string();
-  step_header(++step, "Digital twin '" + a.preset + "': building, laser scan, RGB-D walk, IMU, headset");
+  step_header(++step,
+              "Digital twin '" + a.preset + "': building, laser scan, RGB-D walk, IMU, headset");
   if (std::filesystem::exists(twin / "scan" / "scan.e57")) {
     std::printf("  %s exists: reused (delete it to regenerate)\n", twin.c_str());
   } else {
@@ -187,7 +192,8 @@ void demo_real_slam(const std::filesystem::path& data, const std::filesystem::pa
 
 // AX=XB calibration of a marker on a VR controller, with 10 % bad registrations.
 void demo_handeye(const std::filesystem::path& out, int& step) {
-  step_header(++step, "Hand-eye calibration (marker on a VR controller), 10 % outlier registrations");
+  step_header(++step,
+              "Hand-eye calibration (marker on a VR controller), 10 % outlier registrations");
   run_verb({"handeye", "simulate", "--out", (out / "handeye").string(), "--outliers", "0.1"});
   run_verb({"handeye", "solve", "--pairs", (out / "handeye" / "pairs.csv").string(), "--robust"});
 }

@@ -47,8 +47,8 @@ AteResult compute_ate(const Trajectory& ground_truth, const Trajectory& estimate
 
 struct RpeOptions {
   Alignment alignment = Alignment::kNone;  // relative errors are invariant to SE3 alignment
-  double max_dt = 0.02;                   // seconds
-  std::size_t delta = 1;                  // pose pairs (i, i + delta) among associated poses
+  double max_dt = 0.02;                    // seconds
+  std::size_t delta = 1;                   // pose pairs (i, i + delta) among associated poses
 };
 
 struct RpeResult {

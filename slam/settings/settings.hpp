@@ -7,8 +7,9 @@
 //  - both: Camera.type ("PinHole" | "KannalaBrandt8"), Camera.width/height, Camera.fps,
 //    Camera.RGB, ORBextractor.*; Viewer.* is ignored.
 // coloc's own additions live in the same file under their own prefixes: Markers.*, Fusion.*,
-// OSC.*; ORB-SLAM3's IMU.* block is kept for the IMU users. Any other key is reported as a warning naming it; a missing required key or a value of
-// the wrong type is a coloc::Error naming the key and the file.
+// OSC.*; ORB-SLAM3's IMU.* block is kept for the IMU users. Any other key is reported as a warning
+// naming it; a missing required key or a value of the wrong type is a coloc::Error naming the key
+// and the file.
 
 #include <filesystem>
 #include <map>

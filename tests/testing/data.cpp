@@ -1,7 +1,6 @@
 #include "tests/testing/data.hpp"
 
 #include <gtest/gtest.h>
-
 #include <unistd.h>
 
 #include <cstdlib>
