@@ -62,7 +62,7 @@ OrbExtractor::OrbExtractor(ExtractorOptions options) : options_(options) {
 
   // Half-width of the orientation disc at each row offset: the disc u^2 + v^2 <= R^2 + R, which
   // is symmetric in u and v so that rotating the image by 90 degrees rotates the disc onto itself.
-  constexpr int r = kOrientationRadius;
+  const int r = kOrientationRadius;
   umax_.resize(r + 1);
   for (int v = 0; v <= r; ++v) {
     umax_[static_cast<std::size_t>(v)] = static_cast<int>(std::floor(std::sqrt(r * r + r - v * v)));
