@@ -15,13 +15,25 @@ void RelocalizationOptions::check() const {
   if (ransac_iterations < 1) throw Error("RelocalizationOptions.ransac_iterations must be >= 1");
   if (!(ransac_reprojection_px > 0.0))
     throw Error("RelocalizationOptions.ransac_reprojection_px must be > 0");
+  if (min_ransac_inliers < 4) throw Error("RelocalizationOptions.min_ransac_inliers must be >= 4");
+  if (min_optimized_inliers < 3)
+    throw Error("RelocalizationOptions.min_optimized_inliers must be >= 3");
   if (min_inliers < 10) throw Error("RelocalizationOptions.min_inliers must be >= 10");
+  if (!(wide_radius_px > 0.0)) throw Error("RelocalizationOptions.wide_radius_px must be > 0");
+  if (wide_max_distance < 0 || wide_max_distance > 256)
+    throw Error("RelocalizationOptions.wide_max_distance must be in [0, 256]");
+  if (narrow_min_inliers < 0 || narrow_min_inliers >= min_inliers)
+    throw Error("RelocalizationOptions.narrow_min_inliers must be in [0, min_inliers)");
+  if (!(narrow_radius_px > 0.0)) throw Error("RelocalizationOptions.narrow_radius_px must be > 0");
+  if (narrow_max_distance < 0 || narrow_max_distance > 256)
+    throw Error("RelocalizationOptions.narrow_max_distance must be in [0, 256]");
 }
 
 namespace {
 
 // EPnP + RANSAC on the frame's current matches; sets the pose and keeps only the inliers.
-bool solve_pnp(frame::Frame& frame, const map::Map& map, const RelocalizationOptions& options) {
+// Returns the number of RANSAC inliers (0 when EPnP failed).
+int solve_pnp(frame::Frame& frame, const map::Map& map, const RelocalizationOptions& options) {
   std::vector<cv::Point3d> object;
   std::vector<cv::Point2d> image;
   std::vector<std::size_t> index;
@@ -33,7 +45,7 @@ bool solve_pnp(frame::Frame& frame, const map::Map& map, const RelocalizationOpt
     image.emplace_back(uv.x(), uv.y());
     index.push_back(i);
   }
-  if (object.size() < 6) return false;
+  if (object.size() < 6) return 0;
   const auto& g = frame.geometry();
   const cv::Matx33d k(g.fx, 0, g.cx, 0, g.fy, g.cy, 0, 0, 1);
   cv::Mat rvec, tvec;
@@ -41,7 +53,9 @@ bool solve_pnp(frame::Frame& frame, const map::Map& map, const RelocalizationOpt
   const bool ok = cv::solvePnPRansac(
       object, image, k, cv::noArray(), rvec, tvec, false, options.ransac_iterations,
       static_cast<float>(options.ransac_reprojection_px), 0.99, inliers, cv::SOLVEPNP_EPNP);
-  if (!ok || static_cast<int>(inliers.size()) < options.min_ransac_inliers) return false;
+  if (!ok) return 0;
+  if (static_cast<int>(inliers.size()) < options.min_ransac_inliers)
+    return static_cast<int>(inliers.size());
   cv::Mat r;
   cv::Rodrigues(rvec, r);
   Eigen::Matrix3d rot;
@@ -55,7 +69,51 @@ bool solve_pnp(frame::Frame& frame, const map::Map& map, const RelocalizationOpt
   for (std::size_t i = 0; i < frame.size(); ++i) {
     if (!keep[i]) frame.points[i] = MapPointId::invalid();
   }
-  return true;
+  return static_cast<int>(inliers.size());
+}
+
+}  // namespace
+
+int search_by_projection_passes(frame::Frame& frame, const map::Keyframe& keyframe,
+                                const map::Map& map, const RelocalizationOptions& options,
+                                RelocalizationResult& result) {
+  tracking::drop_outliers(frame);
+  result.wide_pass_matches = tracking::search_keyframe_points(
+      frame, keyframe, map, options.wide_radius_px, options.wide_max_distance);
+  int inliers = tracking::optimize_frame_pose(frame, map);
+  result.wide_pass_inliers = inliers;
+  if (inliers > options.narrow_min_inliers && inliers < options.min_inliers) {
+    // The wide pass's outliers stay matched (ORB-SLAM keeps them in its "found" set), so the
+    // narrow pass neither searches their points again nor reuses their keypoints; the final
+    // optimization reclassifies them.
+    result.narrow_pass_matches = tracking::search_keyframe_points(
+        frame, keyframe, map, options.narrow_radius_px, options.narrow_max_distance);
+    inliers = tracking::optimize_frame_pose(frame, map);
+    result.narrow_pass_inliers = inliers;
+  }
+  result.inliers = inliers;
+  return inliers;
+}
+
+namespace {
+
+// BoW matching, EPnP-RANSAC, optimization and the projection passes against one candidate.
+// Fills the stage counters of `result`; true when the frame has >= min_inliers inliers.
+bool try_candidate(frame::Frame& frame, const map::Keyframe& kf, const map::Map& map,
+                   const RelocalizationOptions& options, RelocalizationResult& result) {
+  frame.points.assign(frame.size(), MapPointId::invalid());
+  frame.outlier.assign(frame.size(), 0);
+  result.bow_matches = tracking::search_by_bow(kf, frame, map);
+  if (result.bow_matches < options.min_bow_matches) return false;
+  result.pnp_inliers = solve_pnp(frame, map, options);
+  if (result.pnp_inliers < options.min_ransac_inliers) return false;
+  int inliers = tracking::optimize_frame_pose(frame, map);
+  result.optimized_inliers = inliers;
+  result.inliers = inliers;
+  if (inliers < options.min_optimized_inliers) return false;
+  if (inliers < options.min_inliers)
+    inliers = search_by_projection_passes(frame, kf, map, options, result);
+  return inliers >= options.min_inliers;
 }
 
 }  // namespace
@@ -64,38 +122,27 @@ RelocalizationResult relocalize(frame::Frame& frame, const map::Map& map,
                                 const bow::BowDatabase& database,
                                 const RelocalizationOptions& options) {
   options.check();
-  RelocalizationResult result;
   bow::QueryOptions query;
   query.max_results = options.max_candidates;
   query.min_common_words_ratio = 0.8;
   const auto candidates = database.query(frame.bow, query);
-  result.candidates = static_cast<int>(candidates.size());
   for (const auto& c : candidates) {
     const map::Keyframe* kf = map.keyframe(KeyframeId(c.image));
     if (!kf || kf->frame.feature_vector.entries.empty()) continue;
-    frame.points.assign(frame.size(), MapPointId::invalid());
-    frame.outlier.assign(frame.size(), 0);
-    if (tracking::search_by_bow(*kf, frame, map) < options.min_bow_matches) continue;
-    if (!solve_pnp(frame, map, options)) continue;
-    int inliers = tracking::optimize_frame_pose(frame, map);
-    if (inliers < 10) continue;
-    if (inliers < options.min_inliers) {
-      tracking::drop_outliers(frame);
-      tracking::search_keyframe_points(frame, *kf, map, 10.0, tracking::kDescriptorHigh);
-      inliers = tracking::optimize_frame_pose(frame, map);
-    }
-    if (inliers >= options.min_inliers) {
-      tracking::drop_outliers(frame);
-      frame.has_pose = true;
-      result.success = true;
-      result.keyframe = kf->id;
-      result.inliers = inliers;
-      return result;
-    }
+    RelocalizationResult attempt;
+    attempt.candidates = static_cast<int>(candidates.size());
+    if (!try_candidate(frame, *kf, map, options, attempt)) continue;
+    tracking::drop_outliers(frame);
+    frame.has_pose = true;
+    attempt.success = true;
+    attempt.keyframe = kf->id;
+    return attempt;
   }
   frame.points.assign(frame.size(), MapPointId::invalid());
   frame.outlier.assign(frame.size(), 0);
-  return result;
+  RelocalizationResult failed;
+  failed.candidates = static_cast<int>(candidates.size());
+  return failed;
 }
 
 }  // namespace coloc::slam::reloc

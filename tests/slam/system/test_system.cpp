@@ -16,22 +16,14 @@
 #include "slam/settings/settings.hpp"
 #include "slam/system/synthetic_scene.hpp"
 #include "slam/system/system.hpp"
+#include "tests/slam/system/slam_test_support.hpp"
 #include "tests/testing/data.hpp"
 
 namespace coloc::slam::system {
 namespace {
 
-std::filesystem::path source_dir() {
-  if (const char* env = std::getenv("COLOC_SOURCE_DIR")) return env;
-  return COLOC_TEST_SOURCE_DIR;
-}
-
-// Loaded once: the vocabulary takes a moment to read.
-const bow::Vocabulary& vocabulary() {
-  static const bow::Vocabulary v =
-      bow::Vocabulary::load(source_dir() / "Vocabulary/coloc_orb_k10_L5.cvoc");
-  return v;
-}
+using test_support::source_dir;
+using test_support::vocabulary;
 
 settings::Settings tum1_settings() {
   return settings::load_settings(source_dir() / "Examples/RGB-D/TUM1.yaml");
