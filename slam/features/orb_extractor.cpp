@@ -250,10 +250,16 @@ OrbFeatures OrbExtractor::extract(const cv::Mat& image, const Camera* camera) {
     detect_level(level, features.keypoints);
     if (features.keypoints.size() == first) continue;
     describe_level(level, features.keypoints, first, features.descriptors);
-    const float scale = scales_[static_cast<std::size_t>(level)];
+    // Pixel centres, not corners, line up between levels (cv::resize maps x_dst to
+    // (x_dst + 0.5) * ratio - 0.5, and such maps compose): plain x * scale would shift level-k
+    // keypoints by 0.5 * (scale - 1) px, 1.3 px at level 7, a bias bundle adjustment then
+    // spreads over the map.
+    const cv::Mat& img = levels_[static_cast<std::size_t>(level)];
+    const float sx = static_cast<float>(grey.cols) / static_cast<float>(img.cols);
+    const float sy = static_cast<float>(grey.rows) / static_cast<float>(img.rows);
     for (std::size_t i = first; i < features.keypoints.size(); ++i) {
-      features.keypoints[i].x *= scale;
-      features.keypoints[i].y *= scale;
+      features.keypoints[i].x = (features.keypoints[i].x + 0.5f) * sx - 0.5f;
+      features.keypoints[i].y = (features.keypoints[i].y + 0.5f) * sy - 0.5f;
     }
   }
 

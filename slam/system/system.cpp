@@ -88,6 +88,17 @@ void System::shutdown() {
   if (mapper_) mapper_->stop();
 }
 
+mapping::GlobalBaReport System::optimize_map(const mapping::GlobalBaOptions& options) {
+  shutdown();
+  const mapping::GlobalBaReport report = mapping::global_bundle_adjustment(*shared_, options);
+  spdlog::info(
+      "global BA: {} keyframes, {} points, {} observations ({} outliers removed), rms {:.3f} -> "
+      "{:.3f} px, {} iterations, {:.0f} ms",
+      report.keyframes, report.points, report.observations, report.outliers, report.initial_rms_px,
+      report.final_rms_px, report.iterations, report.ms);
+  return report;
+}
+
 tracking::TrackingResult System::track(const cv::Mat& image, const cv::Mat& depth,
                                        double timestamp) {
   if (image.empty()) throw Error("System::track: empty image");

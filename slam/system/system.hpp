@@ -12,6 +12,7 @@
 #include "slam/core/timing.hpp"
 #include "slam/core/trajectory.hpp"
 #include "slam/map/shared_map.hpp"
+#include "slam/mapping/global_ba.hpp"
 #include "slam/mapping/local_mapper.hpp"
 #include "slam/settings/settings.hpp"
 #include "slam/tracking/tracker.hpp"
@@ -53,6 +54,9 @@ class System {
   tracking::TrackingResult track(const cv::Mat& image, const cv::Mat& depth, double timestamp);
   // Stops local mapping (aborting a running BA) and joins its thread. Idempotent.
   void shutdown();
+  // Global bundle adjustment of the finished map (shuts local mapping down first). For offline
+  // mapping: the trajectory and the map then reflect all observations at once.
+  mapping::GlobalBaReport optimize_map(const mapping::GlobalBaOptions& options = {});
 
   // world_from_cam of every tracked frame (after initialization), following keyframe updates.
   Trajectory trajectory() const;

@@ -132,6 +132,8 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
     last_ = frame::Frame();
   }
   result.track_ms = watch.elapsed_ms();
+  spdlog::debug("tracking: frame {} state {} inliers {} keyframe {}", current_.id.value(),
+                to_string(state_), matches_inliers_, result.keyframe);
   return result;
 }
 
@@ -190,6 +192,7 @@ bool Tracker::track_motion_model() {
   }
   if (n < 20) return false;
   optimize_frame_pose(current_, m);
+  spdlog::debug("tracking: frame {} motion model {} matches", current_.id.value(), n);
   int kept = 0;
   for (std::size_t i = 0; i < current_.size(); ++i) {
     if (current_.points[i].valid() && !current_.outlier[i]) ++kept;

@@ -1,0 +1,32 @@
+#pragma once
+// Global bundle adjustment: every keyframe pose (except the first, which fixes the world frame)
+// and every map point, with the local BA's two passes (Huber, then without the outliers). Run
+// it on a finished map, after local mapping has stopped: the map an offline session saves (and
+// registers to the laser scan) is then consistent as a whole, not only window by window.
+// Frames follow through their reference keyframes (System::trajectory()).
+#include "slam/map/shared_map.hpp"
+#include "slam/optim/bundle_adjustment.hpp"
+
+namespace coloc::slam::mapping {
+
+struct GlobalBaOptions {
+  optim::BundleOptions ba{.iterations_robust = 10, .iterations_refine = 20};
+  // Throws coloc::Error naming the first invalid field.
+  void check() const { ba.check(); }
+};
+
+struct GlobalBaReport {
+  std::size_t keyframes = 0, points = 0, observations = 0;
+  std::size_t outliers = 0;  // observations removed from the map
+  int iterations = 0;
+  // RMS length of the reprojection residual (pixels; (u, v, u_r) for stereo-like observations)
+  // over the observations kept, before and after.
+  double initial_rms_px = 0.0, final_rms_px = 0.0;
+  double ms = 0.0;
+};
+
+// Takes the map lock to copy the problem out and to write the result back, not while solving.
+GlobalBaReport global_bundle_adjustment(map::SharedMap& shared,
+                                        const GlobalBaOptions& options = {});
+
+}  // namespace coloc::slam::mapping

@@ -1,0 +1,149 @@
+// Global bundle adjustment: from a perturbed map with exact observations it must recover the
+// true keyframe poses and points (the first keyframe fixes the gauge); on a SLAM run it must
+// lower the reprojection error and leave a consistent map.
+#include <gtest/gtest.h>
+
+#include <opencv2/core.hpp>
+#include <random>
+
+#include "slam/eval/trajectory_error.hpp"
+#include "slam/mapping/global_ba.hpp"
+#include "slam/system/synthetic_scene.hpp"
+#include "slam/system/system.hpp"
+#include "tests/slam/system/slam_test_support.hpp"
+
+namespace coloc::slam::system {
+namespace {
+
+std::shared_ptr<const frame::FrameGeometry> test_geometry() {
+  PinholeCamera cam;
+  cam.width = 640;
+  cam.height = 480;
+  cam.fx = cam.fy = 500.0;
+  cam.cx = 320.0;
+  cam.cy = 240.0;
+  return std::make_shared<frame::FrameGeometry>(
+      frame::FrameGeometry::make(cam, 40.0, 3.0, {1.0f, 1.2f, 1.44f}));
+}
+
+// The checks every finished map must pass: each observation names a live keyframe whose
+// keypoint points back at the point.
+void expect_consistent(const map::Map& m) {
+  for (const auto& [id, p] : m.points()) {
+    for (const auto& [k, idx] : p.observations) {
+      const map::Keyframe* kf = m.keyframe(k);
+      if (kf == nullptr) {
+        ADD_FAILURE() << "point " << id << " observed by missing keyframe " << k;
+        continue;
+      }
+      EXPECT_EQ(kf->frame.points[idx], id);
+    }
+  }
+}
+
+TEST(GlobalBundleAdjustment, RecoversPerturbedPosesAndPoints) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> uni(-1.0, 1.0);
+  const auto geometry = test_geometry();
+  std::vector<Eigen::Vector3d> world;
+  for (int i = 0; i < 300; ++i)
+    world.emplace_back(1.5 * uni(rng), 1.0 * uni(rng), 2.75 + 1.25 * uni(rng));
+  std::vector<SE3> truth;  // cam_from_world
+  for (int k = 0; k < 6; ++k) {
+    truth.push_back(SE3::exp((Vector6d() << 0.06 * k, 0.02 * std::sin(k), 0.03 * k,
+                              0.02 * std::cos(k), 0.04 * k, 0.01 * k)
+                                 .finished()));
+  }
+  map::SharedMap shared;
+  map::Map& m = shared.map;
+  std::vector<MapPointId> ids(world.size());
+  std::vector<KeyframeId> keyframes;
+  for (std::size_t k = 0; k < truth.size(); ++k) {
+    features::OrbFeatures f;
+    cv::Mat depth(480, 640, CV_32FC1, cv::Scalar(0.0f));
+    std::vector<std::size_t> seen;
+    for (std::size_t i = 0; i < world.size(); ++i) {
+      const Eigen::Vector3d pc = truth[k] * world[i];
+      const Eigen::Vector2d uv = geometry->project(pc);
+      if (uv.x() < 1 || uv.y() < 1 || uv.x() > 638 || uv.y() > 478) continue;
+      float& d = depth.at<float>(static_cast<int>(std::lround(uv.y())),
+                                 static_cast<int>(std::lround(uv.x())));
+      if (d > 0.0f) continue;  // two points on one pixel: keep the first
+      d = static_cast<float>(pc.z());
+      features::Keypoint kp;
+      kp.x = kp.ux = static_cast<float>(uv.x());
+      kp.y = kp.uy = static_cast<float>(uv.y());
+      kp.level = static_cast<int>(i % 3);
+      f.keypoints.push_back(kp);
+      f.descriptors.push_back({});
+      seen.push_back(i);
+    }
+    map::Keyframe kf;
+    kf.id = m.next_keyframe_id();
+    kf.frame = frame::Frame(FrameId(kf.id.value()), static_cast<double>(k), f, depth, geometry);
+    // Depth is read at the rounded pixel: give each keypoint its exact virtual right coordinate.
+    for (std::size_t j = 0; j < seen.size(); ++j)
+      kf.frame.u_right[j] =
+          static_cast<float>(f.keypoints[j].ux - 40.0 / (truth[k] * world[seen[j]]).z());
+    const Vector6d noise = (Vector6d() << 0.02 * uni(rng), 0.02 * uni(rng), 0.02 * uni(rng),
+                            0.02 * uni(rng), 0.02 * uni(rng), 0.02 * uni(rng))
+                               .finished();
+    kf.frame.cam_from_world = k == 0 ? truth[k] : SE3::exp(noise) * truth[k];
+    for (std::size_t j = 0; j < seen.size(); ++j)
+      if (ids[seen[j]].valid()) kf.frame.points[j] = ids[seen[j]];
+    const KeyframeId id = m.add_keyframe(std::move(kf)).id;
+    keyframes.push_back(id);
+    for (std::size_t j = 0; j < seen.size(); ++j) {
+      if (ids[seen[j]].valid()) continue;
+      const Eigen::Vector3d off(0.03 * uni(rng), 0.03 * uni(rng), 0.03 * uni(rng));
+      ids[seen[j]] = m.add_point(world[seen[j]] + off, id, static_cast<std::uint32_t>(j)).id;
+    }
+    m.update_connections(id);
+  }
+  for (const auto& [id, p] : m.points())
+    m.update_point(id);
+
+  const mapping::GlobalBaReport report = mapping::global_bundle_adjustment(shared);
+  EXPECT_EQ(report.keyframes, truth.size());
+  EXPECT_EQ(report.outliers, 0u);
+  EXPECT_GT(report.initial_rms_px, 5.0);
+  EXPECT_LT(report.final_rms_px, 1e-3);
+  for (std::size_t k = 0; k < truth.size(); ++k) {
+    const Vector6d err = (m.keyframe(keyframes[k])->cam_from_world() * truth[k].inverse()).log();
+    EXPECT_LT(err.head<3>().norm(), 1e-4) << "keyframe " << k;
+    EXPECT_LT(err.tail<3>().norm(), 1e-5) << "keyframe " << k;
+  }
+  for (std::size_t i = 0; i < world.size(); ++i) {
+    if (const map::MapPoint* p = ids[i].valid() ? m.point(ids[i]) : nullptr) {
+      if (p->observations.size() >= 2) {
+        EXPECT_LT((p->position - world[i]).norm(), 1e-4);
+      }
+    }
+  }
+  expect_consistent(m);
+}
+
+TEST(GlobalBundleAdjustment, KeepsASlamMapConsistentAndAccurate) {
+  SyntheticSceneOptions scene_options;
+  scene_options.frames = 30;
+  const SyntheticRgbdScene scene(scene_options);
+  SystemOptions options;
+  options.sequential_mapping = true;
+  options.detect_markers = false;
+  System slam(scene.settings(), test_support::vocabulary(), options);
+  Trajectory truth;
+  for (int i = 0; i < scene.size(); ++i) {
+    const SyntheticFrame f = scene.frame(i);
+    truth.push_back({f.timestamp, f.world_from_cam});
+    slam.track(f.color, f.depth, f.timestamp);
+  }
+  const mapping::GlobalBaReport report = slam.optimize_map();
+  EXPECT_GE(report.keyframes, 2u);
+  EXPECT_LE(report.final_rms_px, report.initial_rms_px);
+  EXPECT_LT(report.outliers, report.observations / 20);
+  EXPECT_LT(eval::compute_ate(truth, slam.trajectory()).translation.rmse, 0.005);
+  slam.with_map(expect_consistent);
+}
+
+}  // namespace
+}  // namespace coloc::slam::system
