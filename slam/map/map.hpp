@@ -32,6 +32,7 @@ struct Keyframe {
   KeyframeId parent;                          // spanning tree (invalid for the first keyframe)
   std::set<KeyframeId> children;
   std::vector<markers::MarkerObservation> markers;  // fiducials seen in this keyframe
+  double marker_size = 0.0;  // edge length of those markers (metres), from the settings
 
   const SE3& cam_from_world() const { return frame.cam_from_world; }
   Eigen::Vector3d camera_centre() const { return frame.camera_centre(); }

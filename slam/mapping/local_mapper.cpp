@@ -23,10 +23,12 @@ void LocalMappingOptions::check() const {
 }
 
 LocalMapper::LocalMapper(map::SharedMap& map, const bow::Vocabulary& vocabulary,
-                         const markers::MarkerDetector* detector, LocalMappingOptions options)
+                         const markers::MarkerDetector* detector, double marker_size,
+                         LocalMappingOptions options)
     : shared_(map),
       vocabulary_(vocabulary),
       detector_(detector),
+      marker_size_(marker_size),
       options_(std::move(options)),
       queue_(options_.queue_capacity) {
   options_.check();
@@ -139,6 +141,7 @@ void LocalMapper::insert_keyframe(const KeyframeMessage& message) {
     kf->frame.feature_vector = std::move(fv);
   }
   kf->markers = std::move(found);
+  kf->marker_size = kf->markers.empty() ? 0.0 : marker_size_;
   if (!shared_.database.contains(message.id.value()))
     shared_.database.add(message.id.value(), kf->frame.bow);
   for (MapPointId p : kf->frame.points) {

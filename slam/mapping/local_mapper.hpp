@@ -57,9 +57,11 @@ struct MappingStats {
 
 class LocalMapper {
  public:
-  // `map`, `vocabulary` and `detector` (may be null: no markers) must outlive the mapper.
+  // `map`, `vocabulary` and `detector` (may be null: no markers) must outlive the mapper;
+  // `marker_size` (metres) is stored with each keyframe's marker observations.
   LocalMapper(map::SharedMap& map, const bow::Vocabulary& vocabulary,
-              const markers::MarkerDetector* detector, LocalMappingOptions options);
+              const markers::MarkerDetector* detector, double marker_size,
+              LocalMappingOptions options);
   ~LocalMapper();  // stop()
   LocalMapper(const LocalMapper&) = delete;
   LocalMapper& operator=(const LocalMapper&) = delete;
@@ -90,6 +92,7 @@ class LocalMapper {
   map::SharedMap& shared_;
   const bow::Vocabulary& vocabulary_;
   const markers::MarkerDetector* detector_;
+  double marker_size_;
   LocalMappingOptions options_;
   BoundedQueue<KeyframeMessage> queue_;
   std::thread thread_;

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <sstream>
+#include <string>
+#include <variant>
 
 #include "slam/core/error.hpp"
 
@@ -52,20 +54,18 @@ std::string SystemSummary::describe() const {
 
 System::System(const settings::Settings& settings, const bow::Vocabulary& vocabulary,
                SystemOptions options)
-    : options_(std::move(options)), shared_(std::make_unique<map::SharedMap>()) {
+    : options_(std::move(options)),
+      settings_(settings),
+      vocabulary_(vocabulary),
+      extractor_{settings.orb.n_features, settings.orb.scale_factor, settings.orb.n_levels,
+                 settings.orb.ini_th_fast, settings.orb.min_th_fast},
+      shared_(std::make_unique<map::SharedMap>()) {
   options_.check();
   if (!settings.depth)
     throw Error("System: settings without depth (Camera.bf / ThDepth) for RGB-D",
                 {settings.source.string(), "Camera.bf"});
   if (vocabulary.empty()) throw Error("System: empty vocabulary");
-  features::ExtractorOptions extractor{settings.orb.n_features, settings.orb.scale_factor,
-                                       settings.orb.n_levels, settings.orb.ini_th_fast,
-                                       settings.orb.min_th_fast};
-  extractor.check();
-  const features::OrbExtractor probe(extractor);
-  auto geometry = std::make_shared<frame::FrameGeometry>(frame::FrameGeometry::make(
-      settings.camera, settings.depth->bf, settings.depth->close_depth, probe.scale_factors()));
-  geometry->check();
+  extractor_.check();
   if (options_.detect_markers) {
     markers::DetectorOptions d;
     d.dictionary = settings.markers.dictionary;
@@ -73,11 +73,31 @@ System::System(const settings::Settings& settings, const bow::Vocabulary& vocabu
   }
   spdlog::info("slam options:\n{}", options_.describe());
   mapper_ = std::make_unique<mapping::LocalMapper>(*shared_, vocabulary, detector_.get(),
-                                                   options_.mapping);
-  tracker_ = std::make_unique<tracking::Tracker>(*shared_, *mapper_, vocabulary, geometry,
-                                                 extractor, settings.camera, options_.tracking,
-                                                 options_.sequential_mapping);
+                                                   settings.markers.size, options_.mapping);
+  const int width = image_width(settings.camera), height = image_height(settings.camera);
+  if (width > 0 && height > 0) {
+    start_tracking(width, height);
+  } else {
+    spdlog::info("{}: no Camera.width/height; the image size comes from the first frame",
+                 settings.source.string());
+  }
   mapper_->start();
+}
+
+void System::start_tracking(int width, int height) {
+  std::visit(
+      [&](auto& camera) {
+        camera.width = width;
+        camera.height = height;
+      },
+      settings_.camera);
+  const features::OrbExtractor probe(extractor_);
+  auto geometry = std::make_shared<frame::FrameGeometry>(frame::FrameGeometry::make(
+      settings_.camera, settings_.depth->bf, settings_.depth->close_depth, probe.scale_factors()));
+  geometry->check();
+  tracker_ = std::make_unique<tracking::Tracker>(*shared_, *mapper_, vocabulary_, geometry,
+                                                 extractor_, settings_.camera, options_.tracking,
+                                                 options_.sequential_mapping);
 }
 
 System::~System() {
@@ -102,6 +122,15 @@ mapping::GlobalBaReport System::optimize_map(const mapping::GlobalBaOptions& opt
 tracking::TrackingResult System::track(const cv::Mat& image, const cv::Mat& depth,
                                        double timestamp) {
   if (image.empty()) throw Error("System::track: empty image");
+  if (!tracker_) start_tracking(image.cols, image.rows);
+  if (image.cols != image_width(settings_.camera) || image.rows != image_height(settings_.camera))
+    throw Error("System::track: image is " + std::to_string(image.cols) + "x" +
+                    std::to_string(image.rows) + " but the settings say " +
+                    std::to_string(image_width(settings_.camera)) + "x" +
+                    std::to_string(image_height(settings_.camera)),
+                {settings_.source.string(), "Camera.width"});
+  if (!depth.empty() && depth.size() != image.size())
+    throw Error("System::track: depth image size differs from the colour image");
   auto r = tracker_->track(image, depth, timestamp);
   extract_ms_.push_back(r.extract_ms);
   track_ms_.push_back(r.track_ms);
@@ -114,6 +143,7 @@ tracking::TrackingResult System::track(const cv::Mat& image, const cv::Mat& dept
 Trajectory System::trajectory() const {
   std::lock_guard lock(shared_->mutex);
   Trajectory out;
+  if (!tracker_) return out;
   for (const auto& rec : tracker_->records()) {
     if (!rec.tracked) continue;
     const auto ref = shared_->map.keyframe_pose(rec.reference);
@@ -138,8 +168,10 @@ Trajectory System::keyframe_trajectory() const {
 SystemSummary System::summary() const {
   SystemSummary s;
   s.frames = extract_ms_.size();
-  for (const auto& rec : tracker_->records())
-    s.tracked += rec.tracked ? 1 : 0;
+  if (tracker_) {
+    for (const auto& rec : tracker_->records())
+      s.tracked += rec.tracked ? 1 : 0;
+  }
   s.lost = s.frames - s.tracked;
   {
     std::lock_guard lock(shared_->mutex);

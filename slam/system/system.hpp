@@ -43,7 +43,9 @@ struct SystemSummary {
 
 class System {
  public:
-  // Needs settings with depth (Camera.bf, ThDepth). `vocabulary` must outlive the System.
+  // Needs settings with depth (Camera.bf, ThDepth). Without Camera.width/height the first
+  // image gives the size; later images of another size are rejected (coloc::Error naming
+  // Camera.width). `vocabulary` must outlive the System.
   System(const settings::Settings& settings, const bow::Vocabulary& vocabulary,
          SystemOptions options = {});
   ~System();
@@ -70,7 +72,13 @@ class System {
   }
 
  private:
+  // Builds the frame geometry and the tracker for images of this size.
+  void start_tracking(int width, int height);
+
   SystemOptions options_;
+  settings::Settings settings_;  // Camera width/height filled in by start_tracking()
+  const bow::Vocabulary& vocabulary_;
+  features::ExtractorOptions extractor_;
   std::unique_ptr<map::SharedMap> shared_;
   std::unique_ptr<markers::MarkerDetector> detector_;
   std::unique_ptr<mapping::LocalMapper> mapper_;

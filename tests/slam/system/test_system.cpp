@@ -8,9 +8,12 @@
 #include <map>
 #include <memory>
 #include <opencv2/imgproc.hpp>
+#include <string>
+#include <variant>
 
 #include "markers/dictionary.hpp"
 #include "markers/synthetic.hpp"
+#include "slam/core/error.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/eval/trajectory_error.hpp"
 #include "slam/settings/settings.hpp"
@@ -67,6 +70,7 @@ TEST(SlamSystem, KeyframesStoreMarkerObservations) {
   settings.markers.dictionary = "DICT_4X4_50";
   const auto dictionary = markers::make_dictionary(settings.markers.dictionary);
   const double size = 0.5;
+  settings.markers.size = size;
   // On the far wall (z = 3), facing the camera: marker x = world x, y = -world y, z = -world z.
   Eigen::Matrix3d r;
   r << 1, 0, 0, 0, -1, 0, 0, 0, -1;
@@ -97,6 +101,7 @@ TEST(SlamSystem, KeyframesStoreMarkerObservations) {
       EXPECT_EQ(kf.markers.size(), 1u) << "keyframe " << id;
       if (kf.markers.size() != 1) continue;
       EXPECT_EQ(kf.markers[0].id, 7);
+      EXPECT_EQ(kf.marker_size, size);
       const SE3 cam_from_marker = truth.at(kf.frame.timestamp).inverse() * world_from_marker;
       for (int c = 0; c < 4; ++c) {
         const Eigen::Vector2d expected =
@@ -225,6 +230,36 @@ TEST(SlamSystem, ShutsDownCleanlyWhileLocalMappingIsBusy) {
   });
   EXPECT_TRUE(consistent);
   slam.reset();  // destructor after shutdown: nothing left to join
+}
+
+// Settings files without Camera.width/height (ORB-SLAM's older files) work: the first image
+// gives the size. An image of another size afterwards is an error naming the key.
+TEST(SlamSystem, ImageSizeFromTheFirstFrameWhenSettingsOmitIt) {
+  SyntheticSceneOptions scene_options;
+  scene_options.frames = 8;
+  const SyntheticRgbdScene scene(scene_options);
+  settings::Settings settings = scene.settings();
+  std::visit([](auto& c) { c.width = c.height = 0; }, settings.camera);
+  SystemOptions options;
+  options.sequential_mapping = true;
+  options.detect_markers = false;
+  System slam(settings, vocabulary(), options);
+  for (int i = 0; i < scene.size(); ++i) {
+    const SyntheticFrame f = scene.frame(i);
+    EXPECT_EQ(slam.track(f.color, f.depth, f.timestamp).state, tracking::TrackingState::kOk);
+  }
+  const SyntheticFrame f = scene.frame(0);
+  cv::Mat small_color, small_depth;
+  cv::resize(f.color, small_color, {320, 240});
+  cv::resize(f.depth, small_depth, {320, 240}, 0, 0, cv::INTER_NEAREST);
+  try {
+    slam.track(small_color, small_depth, 100.0);
+    ADD_FAILURE() << "a 320x240 image after 640x480 ones was accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().field, "Camera.width");
+    EXPECT_NE(std::string(e.what()).find("320x240"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(slam.summary().tracked, static_cast<std::size_t>(scene.size()));
 }
 
 }  // namespace
