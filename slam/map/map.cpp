@@ -119,19 +119,23 @@ void Map::erase_keyframe(KeyframeId keyframe) {
   auto it = keyframes_.find(keyframe);
   if (it == keyframes_.end() || keyframe == first_keyframe_) return;
   Keyframe& kf = it->second;
-  for (const auto& [other, w] : kf.covisibility) {
-    auto o = keyframes_.find(other);
-    if (o == keyframes_.end()) continue;
-    o->second.covisibility.erase(keyframe);
-    auto& ord = o->second.covisible_ordered;
+  // Every keyframe, not only kf's neighbours: edges can be one-sided (update_connections drops
+  // a stale edge only on the side it recomputes), and none may outlive the keyframe.
+  for (auto& [other_id, other] : keyframes_) {
+    if (other_id == keyframe) continue;
+    other.covisibility.erase(keyframe);
+    auto& ord = other.covisible_ordered;
     ord.erase(std::remove(ord.begin(), ord.end(), keyframe), ord.end());
   }
   for (std::size_t i = 0; i < kf.frame.points.size(); ++i) {
     if (kf.frame.points[i].valid()) erase_observation(kf.frame.points[i], keyframe);
   }
-  // Children pick the covisible keyframe (parent or a sibling already re-attached) that they
-  // share most points with; ORB-SLAM's rule, simplified to one pass.
-  KeyframeId parent = kf.parent;
+  // Children pick the covisible keyframe they share most points with among the keyframes older
+  // than themselves (already in the tree, so no cycle can form), else kf's parent; ORB-SLAM's
+  // rule, simplified to one pass.
+  // A keyframe never connected has no parent: the root stands in, so that its children and
+  // the frames referencing it stay attached to the map.
+  const KeyframeId parent = keyframes_.count(kf.parent) ? kf.parent : first_keyframe_;
   for (KeyframeId child : kf.children) {
     auto c = keyframes_.find(child);
     if (c == keyframes_.end()) continue;

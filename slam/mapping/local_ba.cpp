@@ -39,7 +39,9 @@ void LocalMapper::cull_keyframes(KeyframeId current) {
   int culled = 0;
   for (KeyframeId k : m.covisible(current)) {
     const map::Keyframe* kf = m.keyframe(k);
-    if (!kf || k == m.first_keyframe()) continue;
+    // Keyframes newer than `current` are still queued for this thread (tracking inserted them
+    // already): not connected, not in the database yet, so not judged yet either.
+    if (!kf || k == m.first_keyframe() || current < k) continue;
     const frame::Frame& f = kf->frame;
     int total = 0, redundant = 0;
     for (std::size_t i = 0; i < f.size(); ++i) {

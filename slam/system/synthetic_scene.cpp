@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 #include "slam/core/error.hpp"
 
@@ -12,6 +13,7 @@ void SyntheticSceneOptions::check() const {
   if (!(fps > 0.0)) throw Error("SyntheticSceneOptions.fps must be > 0");
   if (width < 16 || height < 16) throw Error("SyntheticSceneOptions.width/height too small");
   if (!(fx > 0.0 && fy > 0.0)) throw Error("SyntheticSceneOptions.fx/fy must be > 0");
+  if (!(hover_period_s > 0.0)) throw Error("SyntheticSceneOptions.hover_period_s must be > 0");
   if (!(room_max.array() > room_min.array()).all())
     throw Error("SyntheticSceneOptions.room_max must exceed room_min");
 }
@@ -24,6 +26,15 @@ SyntheticRgbdScene::SyntheticRgbdScene(SyntheticSceneOptions options)
 SE3 SyntheticRgbdScene::world_from_cam(int index) const {
   const double t = index / options_.fps;
   const double a = options_.amplitude, r = options_.rotation_amplitude;
+  if (options_.trajectory == SyntheticTrajectory::kHover) {
+    // Incommensurate slow frequencies: the camera sweeps back and forth over one area.
+    const double w = 2.0 * std::numbers::pi / options_.hover_period_s;
+    const Eigen::Vector3d position(a * std::sin(w * t), 0.5 * a * std::sin(1.37 * w * t + 0.4),
+                                   0.3 * a * std::sin(0.71 * w * t));
+    const Eigen::Vector3d rotation(0.5 * r * std::sin(1.19 * w * t + 0.2), r * std::sin(w * t),
+                                   0.3 * r * std::sin(0.83 * w * t));
+    return SE3(SO3::exp(rotation), position);
+  }
   const Eigen::Vector3d position(a * std::sin(1.3 * t), 0.4 * a * std::sin(2.1 * t + 0.3),
                                  0.6 * a * (1.0 - std::cos(0.9 * t)));
   const Eigen::Vector3d rotation(0.5 * r * std::sin(1.7 * t), r * std::sin(1.1 * t),

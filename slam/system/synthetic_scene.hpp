@@ -12,6 +12,11 @@
 
 namespace coloc::slam::system {
 
+// kWander: a Lissajous-like path over the room (frequencies about 1 rad/s).
+// kHover: a slow oscillation around the start pose (period hover_period_s), so the camera
+// keeps seeing the same area; with frequent keyframes these become redundant (culling tests).
+enum class SyntheticTrajectory { kWander, kHover };
+
 struct SyntheticSceneOptions {
   std::uint64_t seed = 7;
   int frames = 40;
@@ -22,6 +27,8 @@ struct SyntheticSceneOptions {
   Eigen::Vector3d room_max{2.0, 1.5, 3.0};
   double amplitude = 0.25;           // metres: translation amplitude of the trajectory
   double rotation_amplitude = 0.15;  // radians
+  SyntheticTrajectory trajectory = SyntheticTrajectory::kWander;
+  double hover_period_s = 4.0;  // kHover: seconds per oscillation of the main axis
   // Throws coloc::Error naming the first invalid field.
   void check() const;
 };

@@ -5,6 +5,7 @@
 
 #include <iostream>
 #include <memory>
+#include <numbers>
 #include <opencv2/imgproc.hpp>
 
 #include "slam/bow/database.hpp"
@@ -126,7 +127,8 @@ TEST(Relocalization, RelocalizesSyntheticFramesAgainstDenseAndSparseMaps) {
       }
       const PoseError e = pose_error(m, j, f.cam_from_world);
       EXPECT_LT(e.translation_m, 0.02) << "stride " << stride << " frame " << j;
-      EXPECT_LT(e.rotation_rad, 0.5 * M_PI / 180.0) << "stride " << stride << " frame " << j;
+      EXPECT_LT(e.rotation_rad, 0.5 * std::numbers::pi / 180.0)
+          << "stride " << stride << " frame " << j;
       std::cout << "stride " << stride << " frame " << j << ": bow " << r.bow_matches << " pnp "
                 << r.pnp_inliers << " optimized " << r.optimized_inliers << " wide +"
                 << r.wide_pass_matches << " -> " << r.wide_pass_inliers << " inliers " << r.inliers
@@ -180,7 +182,7 @@ TEST(Relocalization, NarrowPassRecoversMatchesAfterARoughPose) {
     EXPECT_EQ(r.inliers, inliers);
     const PoseError e = pose_error(m, j, f.cam_from_world);
     EXPECT_LT(e.translation_m, 0.02) << "frame " << j;
-    EXPECT_LT(e.rotation_rad, 0.5 * M_PI / 180.0) << "frame " << j;
+    EXPECT_LT(e.rotation_rad, 0.5 * std::numbers::pi / 180.0) << "frame " << j;
 
     RelocalizationResult w;
     EXPECT_LT(search_by_projection_passes(g, kf, m.map(), wide_only, w), options.min_inliers);
@@ -188,7 +190,7 @@ TEST(Relocalization, NarrowPassRecoversMatchesAfterARoughPose) {
     std::cout << "frame " << j << ": wide +" << r.wide_pass_matches << " -> " << r.wide_pass_inliers
               << " inliers, narrow +" << r.narrow_pass_matches << " -> " << r.narrow_pass_inliers
               << " inliers, error " << 1e3 * e.translation_m << " mm, "
-              << e.rotation_rad * 180.0 / M_PI << " deg\n";
+              << e.rotation_rad * 180.0 / std::numbers::pi << " deg\n";
   }
 }
 

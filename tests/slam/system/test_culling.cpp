@@ -1,0 +1,220 @@
+// Keyframe culling in practice: the synthetic camera hovers over one area for several seconds
+// with a keyframe every few frames, so later keyframes see what earlier ones saw and local
+// mapping must cull the redundant ones. The map must stay consistent (no id of an erased
+// keyframe left in points, covisibility or spanning tree; the tree stays a tree) and tracking
+// must keep its accuracy.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <iostream>
+#include <memory>
+#include <set>
+#include <vector>
+
+#include "slam/eval/trajectory_error.hpp"
+#include "slam/system/synthetic_scene.hpp"
+#include "slam/system/system.hpp"
+#include "tests/slam/system/slam_test_support.hpp"
+
+namespace coloc::slam::system {
+namespace {
+
+// Every relation of the map checked from both sides; returns the first problem found.
+std::string map_problem(const map::Map& m) {
+  const auto id = [](auto k) { return std::to_string(k.value()); };
+  for (const auto& [pid, p] : m.points()) {
+    for (const auto& [k, idx] : p.observations) {
+      const map::Keyframe* kf = m.keyframe(k);
+      if (!kf) return "point " + id(pid) + " observed by missing keyframe " + id(k);
+      if (idx >= kf->frame.points.size() || kf->frame.points[idx] != pid)
+        return "point " + id(pid) + " not at its keypoint in keyframe " + id(k);
+    }
+    if (!m.keyframe(p.reference)) return "point " + id(pid) + " has a missing reference";
+  }
+  for (const auto& [k, kf] : m.keyframes()) {
+    for (std::size_t i = 0; i < kf.frame.points.size(); ++i) {
+      const MapPointId pid = kf.frame.points[i];
+      if (!pid.valid()) continue;
+      const map::MapPoint* p = m.point(pid);
+      if (!p) return "keyframe " + id(k) + " holds missing point " + id(pid);
+      auto o = p->observations.find(k);
+      if (o == p->observations.end() || o->second != i)
+        return "keyframe " + id(k) + " point " + id(pid) + " lacks the observation";
+    }
+    for (const auto& [other, w] : kf.covisibility) {
+      if (!m.keyframe(other)) return "keyframe " + id(k) + " covisible with missing " + id(other);
+    }
+    for (KeyframeId other : kf.covisible_ordered) {
+      if (!m.keyframe(other)) return "keyframe " + id(k) + " ordered with missing " + id(other);
+    }
+    for (KeyframeId c : kf.children) {
+      const map::Keyframe* child = m.keyframe(c);
+      if (!child) return "keyframe " + id(k) + " has missing child " + id(c);
+      if (child->parent != k) return "child " + id(c) + " of " + id(k) + " has another parent";
+    }
+    if (k == m.first_keyframe()) {
+      if (kf.parent.valid()) return "the first keyframe has a parent";
+      continue;
+    }
+    const map::Keyframe* parent = m.keyframe(kf.parent);
+    if (!parent) return "keyframe " + id(k) + " has missing parent " + id(kf.parent);
+    if (!parent->children.count(k)) return "parent of " + id(k) + " does not list it";
+    // Walking up must reach the root: no cycle.
+    KeyframeId up = k;
+    for (std::size_t hops = 0; up != m.first_keyframe(); ++hops) {
+      if (hops > m.keyframe_count()) return "spanning tree cycle through " + id(k);
+      up = m.keyframe(up)->parent;
+    }
+  }
+  return {};
+}
+
+// A keyframe with n keypoints on a row, all at depth 2 m, with distinct descriptors.
+map::Keyframe make_keyframe(map::Map& m, std::size_t n, double x) {
+  PinholeCamera cam;
+  cam.width = 640;
+  cam.height = 480;
+  cam.fx = cam.fy = 500.0;
+  cam.cx = 320.0;
+  cam.cy = 240.0;
+  static const auto geometry = std::make_shared<frame::FrameGeometry>(
+      frame::FrameGeometry::make(cam, 40.0, 3.0, {1.0f, 1.2f, 1.44f}));
+  features::OrbFeatures f;
+  for (std::size_t i = 0; i < n; ++i) {
+    features::Keypoint kp;
+    kp.x = kp.ux = 20.0f + 9.0f * static_cast<float>(i);
+    kp.y = kp.uy = 240.0f;
+    f.keypoints.push_back(kp);
+    features::Descriptor d{};
+    d[0] = (i + 1) * 0x9e3779b97f4a7c15ULL;
+    f.descriptors.push_back(d);
+  }
+  map::Keyframe kf;
+  kf.id = m.next_keyframe_id();
+  kf.frame = frame::Frame(FrameId(kf.id.value()), 0.0, f,
+                          cv::Mat(480, 640, CV_32FC1, cv::Scalar(2.0f)), geometry);
+  kf.frame.cam_from_world = SE3(SO3(), Eigen::Vector3d(-x, 0.0, 0.0));
+  return kf;
+}
+
+// Adds a keyframe observing `points` at keypoints 0.. and `fresh` new points after them.
+KeyframeId add_observer(map::Map& m, double x, const std::vector<MapPointId>& points,
+                        std::size_t fresh, std::vector<MapPointId>* created = nullptr) {
+  map::Keyframe kf = make_keyframe(m, points.size() + fresh, x);
+  std::copy(points.begin(), points.end(), kf.frame.points.begin());
+  const KeyframeId id = m.add_keyframe(std::move(kf)).id;
+  for (std::size_t i = points.size(); i < points.size() + fresh; ++i) {
+    const auto index = static_cast<std::uint32_t>(i);
+    const MapPointId p = m.add_point(m.keyframe(id)->frame.unproject_world(index), id, index).id;
+    if (created) created->push_back(p);
+  }
+  m.update_connections(id);
+  return id;
+}
+
+std::vector<MapPointId> slice(const std::vector<MapPointId>& v, std::size_t from, std::size_t n) {
+  return {v.begin() + static_cast<long>(from), v.begin() + static_cast<long>(from + n)};
+}
+
+// Tree a <- b <- {c, d}: erasing b must hand c and d to keyframes still in the tree (ORB-SLAM
+// re-attaches children to the parent or to a sibling already re-attached), leave no id of b
+// anywhere, and keep b's pose reachable for the frames that referenced it.
+TEST(KeyframeCulling, ErasingAParentReattachesItsChildren) {
+  map::Map m;
+  std::vector<MapPointId> pa, pb;
+  const KeyframeId a = add_observer(m, 0.0, {}, 60, &pa);
+  const KeyframeId b = add_observer(m, 0.05, pa, 30, &pb);  // sees all of a's, adds 30
+  std::vector<MapPointId> seen_c = slice(pb, 0, 30);
+  for (MapPointId p : slice(pa, 0, 10))
+    seen_c.push_back(p);
+  const KeyframeId c = add_observer(m, 0.1, seen_c, 0);
+  std::vector<MapPointId> seen_d = slice(pb, 0, 20);
+  for (MapPointId p : slice(pa, 0, 5))
+    seen_d.push_back(p);
+  const KeyframeId d = add_observer(m, 0.15, seen_d, 0);
+  ASSERT_EQ(m.keyframe(b)->parent, a);
+  ASSERT_EQ(m.keyframe(c)->parent, b);
+  ASSERT_EQ(m.keyframe(d)->parent, b);
+  ASSERT_EQ(map_problem(m), "");
+
+  const SE3 pose_b = m.keyframe(b)->cam_from_world();
+  m.erase_keyframe(b);
+  EXPECT_FALSE(m.keyframe(b));
+  EXPECT_EQ(map_problem(m), "");
+  for (KeyframeId k : {c, d}) {
+    const KeyframeId parent = m.keyframe(k)->parent;
+    EXPECT_TRUE(parent == a || parent == c) << "keyframe " << k.value();
+    EXPECT_TRUE(m.keyframe(parent)->children.count(k));
+  }
+  const auto pose = m.keyframe_pose(b);
+  ASSERT_TRUE(pose.has_value());
+  EXPECT_LT(translation_distance(*pose, pose_b), 1e-12);
+}
+
+// Covisibility edges are not always symmetric: when c recomputes its connections and drops b
+// (too few shared points left), b keeps its old edge to c. Erasing c must still remove that
+// edge, or b would hold the id of an erased keyframe.
+TEST(KeyframeCulling, ErasingAKeyframeRemovesOneSidedCovisibilityEdges) {
+  map::Map m;
+  std::vector<MapPointId> pa;
+  const KeyframeId a = add_observer(m, 0.0, {}, 40, &pa);
+  const KeyframeId b = add_observer(m, 0.05, slice(pa, 0, 30), 0);
+  const KeyframeId c = add_observer(m, 0.1, slice(pa, 0, 20), 0);
+  ASSERT_EQ(m.keyframe(b)->covisibility.at(c), 20);
+  for (MapPointId p : slice(pa, 0, 10))
+    m.erase_observation(p, c);
+  m.update_connections(c);  // 10 shared with a and with b: c keeps only its best edge
+  ASSERT_EQ(m.keyframe(c)->covisibility.count(b), 0u);
+  ASSERT_EQ(m.keyframe(b)->covisibility.count(c), 1u);  // one-sided
+  m.erase_keyframe(c);
+  EXPECT_EQ(map_problem(m), "");
+  EXPECT_EQ(m.keyframe(b)->covisibility.count(c), 0u);
+  EXPECT_EQ(m.keyframe(a)->covisibility.count(c), 0u);
+}
+
+TEST(KeyframeCulling, HoveringCameraCullsRedundantKeyframesAndKeepsTheMapConsistent) {
+  SyntheticSceneOptions scene_options;
+  scene_options.trajectory = SyntheticTrajectory::kHover;
+  scene_options.frames = 120;  // 4 s: 1.6 oscillations
+  scene_options.amplitude = 0.1;
+  scene_options.rotation_amplitude = 0.1;
+  scene_options.hover_period_s = 2.5;
+  // The far wall just beyond the close-depth limit (ThDepth * baseline = 3.05 m): frames keep
+  // few close points, so the RGB-D "close points" rule asks for a keyframe every few frames,
+  // as on TUM-like scenes, and the hovering camera piles them up over one area.
+  scene_options.room_max.z() = 3.1;
+  const SyntheticRgbdScene scene(scene_options);
+  SystemOptions options;
+  options.sequential_mapping = true;  // deterministic
+  options.detect_markers = false;
+  options.tracking.min_frames_between_keyframes = 3;
+  System slam(scene.settings(), test_support::vocabulary(), options);
+  Trajectory truth;
+  int keyframes_made = 0, lost = 0;
+  for (int i = 0; i < scene.size(); ++i) {
+    const SyntheticFrame f = scene.frame(i);
+    truth.push_back({f.timestamp, f.world_from_cam});
+    const auto r = slam.track(f.color, f.depth, f.timestamp);
+    keyframes_made += r.keyframe ? 1 : 0;
+    lost += r.state == tracking::TrackingState::kOk ? 0 : 1;
+  }
+  slam.shutdown();
+  const SystemSummary s = slam.summary();
+  EXPECT_EQ(lost, 0);
+  EXPECT_GT(s.mapping.keyframes_culled, 0);  // 14 of 33 when written
+  EXPECT_EQ(s.keyframes + static_cast<std::size_t>(s.mapping.keyframes_culled),
+            static_cast<std::size_t>(keyframes_made));
+  EXPECT_EQ(slam.with_map(map_problem), "");
+  // Frames whose reference keyframe was culled still get poses (through the erased chain).
+  const Trajectory estimate = slam.trajectory();
+  ASSERT_EQ(estimate.size(), truth.size());
+  const auto ate = eval::compute_ate(truth, estimate);
+  EXPECT_LT(ate.translation.rmse, 0.005);
+  std::cout << "hover: " << keyframes_made << " keyframes made, " << s.mapping.keyframes_culled
+            << " culled, " << s.keyframes << " kept; ATE RMSE " << 1e3 * ate.translation.rmse
+            << " mm\n"
+            << s.describe() << "\n";
+}
+
+}  // namespace
+}  // namespace coloc::slam::system
