@@ -223,8 +223,12 @@ bool Tracker::relocalize() {
   reference_ = r.keyframe;
   last_reloc_frame_ = current_.id;
   ++relocalizations_;
-  spdlog::info("tracking: relocalized at frame {} against keyframe {} ({} inliers)",
-               current_.id.value(), r.keyframe.value(), r.inliers);
+  spdlog::info(
+      "tracking: relocalized at frame {} against keyframe {} ({} inliers: bow {}, epnp {}, "
+      "optimized {}, wide pass +{} -> {}, narrow pass +{} -> {})",
+      current_.id.value(), r.keyframe.value(), r.inliers, r.bow_matches, r.pnp_inliers,
+      r.optimized_inliers, r.wide_pass_matches, r.wide_pass_inliers, r.narrow_pass_matches,
+      r.narrow_pass_inliers);
   return true;
 }
 
