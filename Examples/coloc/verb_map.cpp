@@ -163,8 +163,11 @@ void run_bench(const MapArgs& args) {
   std::printf("%4s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %7s %5s %4s %8s %8s\n", "run",
               "extr_med", "extr_p99", "pose_med", "pose_p99", "lmap_med", "lmap_p99", "kf_med",
               "kf_p99", "total_med", "total_p99", "ba_med", "lost", "kfs", "ate_mm", "gba_mm");
+  std::vector<double> ate_online, ate_final;
   for (int run = 0; run < args.runs; ++run) {
     const RunResult r = run_slam(*sequence, settings, vocabulary, args.sequential, true);
+    if (r.ate_online) ate_online.push_back(1e3 * r.ate_online->translation.rmse);
+    if (r.ate) ate_final.push_back(1e3 * r.ate->translation.rmse);
     const auto& s = r.summary;
     const SampleStats ba = summarize(s.mapping.ba_ms);
     std::printf(
@@ -182,6 +185,15 @@ void run_bench(const MapArgs& args) {
       "keyframe decision + creation (kf), total (all stages + locking); ba_med: local BA ms per "
       "keyframe;\n"
       "ate_mm: ATE RMSE of the trajectory as tracked, gba_mm: after the final global BA\n");
+  // Threads make runs differ: the spread over runs is part of the result.
+  auto spread = [](const char* name, const std::vector<double>& v) {
+    if (v.size() < 2) return;
+    const SampleStats s = summarize(v);
+    std::printf("%s over %zu runs: mean %.2f, std %.2f, median %.2f, min %.2f, max %.2f mm\n", name,
+                v.size(), s.mean, s.stddev, s.median, s.min, s.max);
+  };
+  spread("ate_mm", ate_online);
+  spread("gba_mm", ate_final);
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <Eigen/Core>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <numbers>
@@ -121,6 +123,47 @@ TEST(OrbExtractor, CoversTheImageBetterThanOpenCvOrb) {
   const double cv_coverage = grid_coverage(theirs, 640, 480);
   EXPECT_GT(ours_coverage, cv_coverage);
   EXPECT_GE(ours_coverage, 0.7) << "OpenCV: " << cv_coverage;
+}
+
+// A corner found on pyramid level k must land where level 0 finds it: level pixels map to level
+// 0 centre to centre, (x + 0.5) * ratio - 0.5. The plain x * scale of ORB-SLAM shifts level-k
+// keypoints by 0.5 * (scale - 1) px (here -0.2 px measured at levels 1-2), a bias BA cannot
+// remove. Measured over real frames: the mean offset to the nearest level-0 keypoint.
+TEST(OrbExtractor, HigherLevelKeypointsAgreeWithLevelZero) {
+  COLOC_REQUIRE_DATA(dir, "tum_fr1_xyz_37f");
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(dir / "rgb"))
+    files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  files.resize(std::min<std::size_t>(files.size(), 12));
+  OrbExtractor extractor(ExtractorOptions{.n_features = 3000});
+  std::array<Eigen::Vector2d, 4> sum{};
+  std::array<int, 4> count{};
+  for (const auto& file : files) {
+    const OrbFeatures f = extractor.extract(cv::imread(file.string(), cv::IMREAD_GRAYSCALE));
+    for (const Keypoint& k : f.keypoints) {
+      if (k.level < 1 || k.level > 3) continue;
+      const Keypoint* nearest = nullptr;
+      double best = 1.5;  // px: the same corner, not a neighbour
+      for (const Keypoint& k0 : f.keypoints) {
+        const double d = std::hypot(k0.x - k.x, k0.y - k.y);
+        if (k0.level == 0 && d < best) {
+          best = d;
+          nearest = &k0;
+        }
+      }
+      if (!nearest) continue;
+      const auto level = static_cast<std::size_t>(k.level);
+      sum[level] += Eigen::Vector2d(k.x - nearest->x, k.y - nearest->y);
+      ++count[level];
+    }
+  }
+  for (std::size_t level = 1; level <= 3; ++level) {
+    ASSERT_GT(count[level], 500) << "level " << level;
+    const Eigen::Vector2d mean = sum[level] / count[level];
+    EXPECT_LT(mean.cwiseAbs().maxCoeff(), 0.1)
+        << "level " << level << " mean offset " << mean.transpose() << " px";
+  }
 }
 
 TEST(OrbExtractor, IsDeterministic) {
