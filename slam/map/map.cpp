@@ -158,6 +158,23 @@ void Map::erase_keyframe(KeyframeId keyframe) {
   keyframes_.erase(it);
 }
 
+namespace {
+
+// covisible_ordered from covisibility: decreasing weight, then increasing id (deterministic).
+void order_covisible(Keyframe& kf) {
+  std::vector<std::pair<int, KeyframeId>> ord;
+  for (const auto& [k, w] : kf.covisibility)
+    ord.emplace_back(w, k);
+  std::sort(ord.begin(), ord.end(), [](const auto& a, const auto& b) {
+    return a.first != b.first ? a.first > b.first : a.second < b.second;
+  });
+  kf.covisible_ordered.clear();
+  for (const auto& e : ord)
+    kf.covisible_ordered.push_back(e.second);
+}
+
+}  // namespace
+
 void Map::update_connections(KeyframeId keyframe) {
   Keyframe& kf = keyframes_.at(keyframe);
   std::map<KeyframeId, int> counts;
@@ -166,42 +183,45 @@ void Map::update_connections(KeyframeId keyframe) {
     auto it = points_.find(p);
     if (it == points_.end()) continue;
     for (const auto& [other, idx] : it->second.observations) {
-      if (other != keyframe) ++counts[other];
+      if (other != keyframe && keyframes_.count(other)) ++counts[other];
     }
   }
-  if (counts.empty()) return;
   constexpr int kMinWeight = 15;
-  KeyframeId best;
-  int best_w = 0;
-  std::vector<std::pair<int, KeyframeId>> kept;
+  KeyframeId best, best_older;
+  int best_w = 0, best_older_w = 0;
+  std::map<KeyframeId, int> kept;
   for (const auto& [other, w] : counts) {
     if (w > best_w) {
       best_w = w;
       best = other;
     }
-    if (w >= kMinWeight) kept.emplace_back(w, other);
+    // The spanning-tree parent is an older keyframe: tracking may already have inserted newer
+    // ones that share points, and a parent among them could close a cycle.
+    if (other < keyframe && w > best_older_w) {
+      best_older_w = w;
+      best_older = other;
+    }
+    if (w >= kMinWeight) kept[other] = w;
   }
-  if (kept.empty()) kept.emplace_back(best_w, best);
-  std::sort(kept.begin(), kept.end(),
-            [](const auto& a, const auto& b) { return a.first > b.first; });
-  kf.covisibility.clear();
-  kf.covisible_ordered.clear();
-  for (const auto& [w, other] : kept) {
-    kf.covisibility[other] = w;
-    kf.covisible_ordered.push_back(other);
+  if (kept.empty() && best.valid()) kept[best] = best_w;
+  // Edges are symmetric: a neighbour this keyframe no longer shares enough points with drops
+  // its side too.
+  for (const auto& [other, w] : kf.covisibility) {
+    if (kept.count(other)) continue;
+    auto o = keyframes_.find(other);
+    if (o == keyframes_.end()) continue;
+    o->second.covisibility.erase(keyframe);
+    order_covisible(o->second);
+  }
+  kf.covisibility = kept;
+  order_covisible(kf);
+  for (const auto& [other, w] : kept) {
     Keyframe& o = keyframes_.at(other);
     o.covisibility[keyframe] = w;
-    std::vector<std::pair<int, KeyframeId>> ord;
-    for (const auto& [k, ww] : o.covisibility)
-      ord.emplace_back(ww, k);
-    std::sort(ord.begin(), ord.end(),
-              [](const auto& a, const auto& b) { return a.first > b.first; });
-    o.covisible_ordered.clear();
-    for (const auto& e : ord)
-      o.covisible_ordered.push_back(e.second);
+    order_covisible(o);
   }
-  if (!kf.parent.valid() && keyframe != first_keyframe_ && keyframes_.count(kept.front().second)) {
-    kf.parent = kept.front().second;
+  if (!kf.parent.valid() && keyframe != first_keyframe_ && best_older.valid()) {
+    kf.parent = best_older;
     keyframes_.at(kf.parent).children.insert(keyframe);
   }
 }
