@@ -167,6 +167,8 @@ void add_eval_verb(CLI::App& app) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   rpe.callback([rpe_args] { run_rpe(*rpe_args); });
+
+  add_frame_limit_verb(eval);
 }
 
 }  // namespace coloc::cli

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "Examples/coloc/cli_common.hpp"
+#include "Examples/coloc/slam_inputs.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "slam/bow/vocabulary.hpp"
 #include "slam/core/error.hpp"
@@ -21,21 +22,10 @@
 #include "slam/settings/settings.hpp"
 #include "slam/system/system.hpp"
 
-#ifndef COLOC_SOURCE_DIR
-#define COLOC_SOURCE_DIR "."
-#endif
-
 namespace coloc::cli {
 namespace {
 
 namespace fs = std::filesystem;
-
-// The repository (for the shipped vocabulary and camera files): $COLOC_SOURCE_DIR, else the
-// source tree this binary was built from.
-fs::path source_dir() {
-  if (const char* env = std::getenv("COLOC_SOURCE_DIR"); env != nullptr && *env != '\0') return env;
-  return COLOC_SOURCE_DIR;
-}
 
 struct MapArgs {
   fs::path sequence, config, vocabulary, trajectory, keyframes;
@@ -44,18 +34,6 @@ struct MapArgs {
   bool json = false;
   int runs = 1;
 };
-
-fs::path default_vocabulary() {
-  return source_dir() / "Vocabulary/coloc_orb_k10_L5.cvoc";
-}
-
-// The shipped camera file for the sequence's format.
-fs::path default_config(const dataset::Sequence& sequence) {
-  const fs::path dir = source_dir() / "Examples/RGB-D";
-  if (sequence.format() == "7scenes") return dir / "7Scenes.yaml";
-  if (sequence.format() == "tum") return dir / "TUM1.yaml";
-  throw Error("no default camera settings for format '" + sequence.format() + "': pass --config");
-}
 
 struct RunResult {
   slam::system::SystemSummary summary;
@@ -94,38 +72,20 @@ RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& 
   return r;
 }
 
-// The settings file's DepthMapFactor says how raw depth becomes metres (TUM 5000 per metre,
-// RealSense and the twin 1000): the sequence is read with it, not with the format's default.
-std::unique_ptr<dataset::Sequence> open_for_settings(const fs::path& dir,
-                                                     const settings::Settings& settings) {
-  dataset::SequenceOptions options;
-  if (settings.depth) options.depth_scale = settings.depth->depth_map_factor;
-  return dataset::open_sequence(dir, options);
-}
-
 // What `coloc map` and `coloc bench track` both start from.
 struct MapInputs {
-  fs::path config;
-  settings::Settings settings;
-  std::unique_ptr<dataset::Sequence> sequence;
+  SlamInputs slam;
   slam::bow::Vocabulary vocabulary;
 };
 
 MapInputs load_inputs(const MapArgs& args) {
-  MapInputs in;
-  in.config =
-      args.config.empty() ? default_config(*dataset::open_sequence(args.sequence)) : args.config;
-  in.settings = settings::load_settings(in.config);
-  in.sequence = open_for_settings(args.sequence, in.settings);
-  in.vocabulary =
-      slam::bow::Vocabulary::load(args.vocabulary.empty() ? default_vocabulary() : args.vocabulary);
-  return in;
+  return {load_slam_inputs(args.sequence, args.config), load_vocabulary(args.vocabulary)};
 }
 
 void run_map(const MapArgs& args) {
   const MapInputs in = load_inputs(args);
-  const RunResult r =
-      run_slam(*in.sequence, in.settings, in.vocabulary, args.sequential, !args.no_global_ba);
+  const RunResult r = run_slam(*in.slam.sequence, in.slam.settings, in.vocabulary, args.sequential,
+                               !args.no_global_ba);
   write_tum_trajectory(args.trajectory, r.trajectory);
   if (!args.keyframes.empty()) write_tum_trajectory(args.keyframes, r.keyframes);
   const auto& s = r.summary;
@@ -156,7 +116,8 @@ void run_map(const MapArgs& args) {
 
 void run_bench(const MapArgs& args) {
   const MapInputs in = load_inputs(args);
-  const auto& [config, settings, sequence, vocabulary] = in;
+  const auto& [config, settings, sequence] = in.slam;
+  const auto& vocabulary = in.vocabulary;
   std::printf("sequence %s (%zu frames), settings %s, %s mapping\n", args.sequence.string().c_str(),
               sequence->size(), config.string().c_str(),
               args.sequential ? "sequential" : "concurrent");

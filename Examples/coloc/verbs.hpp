@@ -10,6 +10,8 @@ namespace coloc::cli {
 // `bench` is the `coloc bench` subcommand: a verb adds its speed measurements under it.
 void add_demo_verb(CLI::App& app);
 void add_eval_verb(CLI::App& app);
+// `eval` is the `coloc eval` subcommand (sequence diagnostics next to ate/rpe).
+void add_frame_limit_verb(CLI::App& eval);
 void add_vocab_verb(CLI::App& app, CLI::App& bench);
 void add_map_verb(CLI::App& app, CLI::App& bench);
 void add_e57_verb(CLI::App& app, CLI::App& bench);

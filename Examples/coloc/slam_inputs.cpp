@@ -1,0 +1,51 @@
+#include "Examples/coloc/slam_inputs.hpp"
+
+#include <cstdlib>
+
+#include "slam/core/error.hpp"
+
+#ifndef COLOC_SOURCE_DIR
+#define COLOC_SOURCE_DIR "."
+#endif
+
+namespace coloc::cli {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// The repository (for the shipped vocabulary and camera files): $COLOC_SOURCE_DIR, else the
+// source tree this binary was built from.
+fs::path source_dir() {
+  if (const char* env = std::getenv("COLOC_SOURCE_DIR"); env != nullptr && *env != '\0') return env;
+  return COLOC_SOURCE_DIR;
+}
+
+// The shipped camera file for the sequence's format.
+fs::path default_config(const dataset::Sequence& sequence) {
+  const fs::path dir = source_dir() / "Examples/RGB-D";
+  if (sequence.format() == "7scenes") return dir / "7Scenes.yaml";
+  if (sequence.format() == "tum") return dir / "TUM1.yaml";
+  throw Error("no default camera settings for format '" + sequence.format() + "': pass --config");
+}
+
+}  // namespace
+
+SlamInputs load_slam_inputs(const fs::path& sequence, const fs::path& config) {
+  SlamInputs in;
+  in.config = config.empty() ? default_config(*dataset::open_sequence(sequence)) : config;
+  in.settings = settings::load_settings(in.config);
+  // The settings file's DepthMapFactor says how raw depth becomes metres (TUM 5000 per metre,
+  // RealSense and the twin 1000): the sequence is read with it, not with the format's default.
+  dataset::SequenceOptions options;
+  if (in.settings.depth) options.depth_scale = in.settings.depth->depth_map_factor;
+  in.sequence = dataset::open_sequence(sequence, options);
+  return in;
+}
+
+slam::bow::Vocabulary load_vocabulary(const fs::path& path) {
+  return slam::bow::Vocabulary::load(
+      path.empty() ? source_dir() / "Vocabulary/coloc_orb_k10_L5.cvoc" : path);
+}
+
+}  // namespace coloc::cli

@@ -1,0 +1,27 @@
+#pragma once
+// What the SLAM verbs (coloc map, coloc bench track, coloc eval frame-limit) load: the camera
+// settings (given, or the file shipped for the sequence's format), the sequence read with the
+// settings' depth scale, and the vocabulary.
+#include <filesystem>
+#include <memory>
+
+#include "slam/bow/vocabulary.hpp"
+#include "slam/dataset/sequence.hpp"
+#include "slam/settings/settings.hpp"
+
+namespace coloc::cli {
+
+struct SlamInputs {
+  std::filesystem::path config;
+  settings::Settings settings;
+  std::unique_ptr<dataset::Sequence> sequence;
+};
+
+// Empty `config`: Examples/RGB-D/TUM1.yaml or 7Scenes.yaml by the sequence's format.
+SlamInputs load_slam_inputs(const std::filesystem::path& sequence,
+                            const std::filesystem::path& config);
+
+// Empty path: the shipped Vocabulary/coloc_orb_k10_L5.cvoc.
+slam::bow::Vocabulary load_vocabulary(const std::filesystem::path& path);
+
+}  // namespace coloc::cli

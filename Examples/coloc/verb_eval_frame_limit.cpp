@@ -1,0 +1,194 @@
+// coloc eval frame-limit: how well can ANY global-shutter frame-to-frame tracker do on this
+// sequence? For each frame, the previous frame is placed at its ground-truth pose, its keypoints
+// with depth become 3-D points, and the frame's pose is solved from descriptor matches with the
+// tracker's own pose optimizer (Huber, chi2 rounds), starting from the truth. What remains is
+// the error the data impose: motion blur, rolling shutter, colour/depth time offsets, depth
+// noise, ground-truth noise. A SLAM result far above this limit leaves room for the method; one
+// near it does not.
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <numbers>
+#include <opencv2/imgproc.hpp>
+
+#include "Examples/coloc/cli_common.hpp"
+#include "Examples/coloc/slam_inputs.hpp"
+#include "Examples/coloc/verbs.hpp"
+#include "slam/core/error.hpp"
+#include "slam/core/progress.hpp"
+#include "slam/core/timing.hpp"
+#include "slam/features/orb_extractor.hpp"
+#include "slam/frame/frame.hpp"
+#include "slam/optim/pose_optimizer.hpp"
+#include "slam/tracking/search.hpp"
+
+namespace coloc::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct FrameLimitArgs {
+  fs::path sequence, config;
+  double window_px = 120.0;  // search window for matches (fast rotation moves ~50 px/frame)
+  bool json = false;
+};
+
+// world_from_cam at time t, linearly interpolated (SE3 geodesic) between ground-truth samples.
+std::optional<SE3> pose_at(const Trajectory& gt, double t) {
+  auto it = std::lower_bound(gt.begin(), gt.end(), t,
+                             [](const StampedPose& p, double x) { return p.timestamp < x; });
+  if (it == gt.end() || it == gt.begin()) return std::nullopt;
+  const StampedPose& b = *it;
+  const StampedPose& a = *(it - 1);
+  if (b.timestamp - a.timestamp > 0.1) return std::nullopt;  // a gap in the ground truth
+  return interpolate(a.world_from_cam, b.world_from_cam,
+                     (t - a.timestamp) / (b.timestamp - a.timestamp));
+}
+
+// Mutual-free nearest-descriptor matching of prev's keypoints with depth into cur: same or
+// neighbouring level, within the window, Hamming <= TH_LOW and Lowe's ratio 0.8.
+std::vector<slam::optim::PoseObservation> observations(const slam::frame::Frame& prev,
+                                                       const slam::frame::Frame& cur,
+                                                       double window) {
+  std::vector<slam::optim::PoseObservation> obs;
+  const auto& g = cur.geometry();
+  for (std::size_t i = 0; i < prev.size(); ++i) {
+    if (!prev.has_depth(i)) continue;
+    const auto& kp = prev.features.keypoints[i];
+    int best = 256, second = 256;
+    std::size_t best_j = 0;
+    for (std::size_t j :
+         cur.features_in_area(kp.ux, kp.uy, window, std::max(0, kp.level - 1), kp.level + 1)) {
+      const int d = slam::features::hamming_distance(prev.features.descriptors[i],
+                                                     cur.features.descriptors[j]);
+      if (d < best) {
+        second = best;
+        best = d;
+        best_j = j;
+      } else if (d < second) {
+        second = d;
+      }
+    }
+    if (best > slam::tracking::kDescriptorLow || best > 0.8 * second) continue;
+    slam::optim::PoseObservation o;
+    o.world = prev.unproject_world(i);
+    o.pixel = cur.pixel(best_j);
+    o.u_right = cur.u_right[best_j];
+    o.inv_sigma2 = 1.0 / g.level_sigma2[static_cast<std::size_t>(cur.level(best_j))];
+    obs.push_back(o);
+  }
+  return obs;
+}
+
+void run_frame_limit(const FrameLimitArgs& args) {
+  const SlamInputs in = load_slam_inputs(args.sequence, args.config);
+  const dataset::Sequence& seq = *in.sequence;
+  const Trajectory& gt = seq.ground_truth();
+  if (gt.empty()) throw Error("sequence has no ground truth", {args.sequence.string()});
+  if (!in.settings.depth) throw Error("settings without depth (Camera.bf)", {in.config.string()});
+  const auto& orb = in.settings.orb;
+  slam::features::OrbExtractor extractor(slam::features::ExtractorOptions{
+      orb.n_features, orb.scale_factor, orb.n_levels, orb.ini_th_fast, orb.min_th_fast});
+  std::shared_ptr<slam::frame::FrameGeometry> geometry;
+  slam::frame::Frame prev;
+  bool have_prev = false;
+  std::vector<double> rot_deg, trans_mm, matches;
+  std::vector<std::pair<double, std::size_t>> worst;  // translation error, frame index
+  Progress progress("frame-limit", seq.size());
+  for (std::size_t k = 0; k < seq.size(); ++k) {
+    const auto f = seq.frame(k);
+    progress.set(k + 1);
+    const auto world_from_cam = pose_at(gt, f.timestamp);
+    if (!world_from_cam) {
+      have_prev = false;
+      continue;
+    }
+    if (!geometry) {
+      Camera camera = in.settings.camera;
+      std::visit(
+          [&](auto& c) {
+            c.width = f.color.cols;
+            c.height = f.color.rows;
+          },
+          camera);
+      geometry = std::make_shared<slam::frame::FrameGeometry>(slam::frame::FrameGeometry::make(
+          camera, in.settings.depth->bf, in.settings.depth->close_depth,
+          extractor.scale_factors()));
+    }
+    cv::Mat grey = f.color;
+    if (grey.channels() == 3) cv::cvtColor(f.color, grey, cv::COLOR_BGR2GRAY);
+    slam::frame::Frame cur(FrameId(k + 1), f.timestamp,
+                           extractor.extract(grey, &in.settings.camera), f.depth, geometry);
+    cur.cam_from_world = world_from_cam->inverse();
+    cur.has_pose = true;
+    if (have_prev) {
+      const auto obs = observations(prev, cur, args.window_px);
+      const slam::optim::Intrinsics intr{geometry->fx, geometry->fy, geometry->cx, geometry->cy,
+                                         geometry->bf};
+      if (obs.size() >= 10) {
+        const auto r = slam::optim::optimize_pose(cur.cam_from_world, obs, intr);
+        const SE3 err = r.cam_from_world * *world_from_cam;  // identity when exact
+        rot_deg.push_back(err.so3().log().norm() * 180.0 / std::numbers::pi);
+        trans_mm.push_back(1e3 * err.inverse().translation().norm());
+        matches.push_back(r.inliers);
+        worst.emplace_back(trans_mm.back(), k);
+      }
+    }
+    prev = std::move(cur);
+    have_prev = true;
+  }
+  progress.finish();
+  if (rot_deg.empty())
+    throw Error("no frame pair with ground truth and depth", {args.sequence.string()});
+  auto rms = [](const std::vector<double>& v) {
+    double s = 0.0;
+    for (double x : v)
+      s += x * x;
+    return std::sqrt(s / static_cast<double>(v.size()));
+  };
+  const SampleStats r = summarize(rot_deg), t = summarize(trans_mm), m = summarize(matches);
+  std::sort(worst.rbegin(), worst.rend());
+  if (args.json) {
+    std::cout << "{\"pairs\": " << rot_deg.size()
+              << ", \"rotation_deg_rms\": " << json_number(rms(rot_deg))
+              << ", \"rotation_deg_median\": " << json_number(r.median)
+              << ", \"rotation_deg_max\": " << json_number(r.max)
+              << ", \"translation_mm_rms\": " << json_number(rms(trans_mm))
+              << ", \"translation_mm_median\": " << json_number(t.median)
+              << ", \"translation_mm_max\": " << json_number(t.max)
+              << ", \"inliers_median\": " << json_number(m.median) << "}\n";
+    return;
+  }
+  std::printf(
+      "frame-to-frame limit over %zu frame pairs (previous frame at its ground-truth pose)\n",
+      rot_deg.size());
+  std::printf("  rotation    rms %.3f deg, median %.3f, max %.3f\n", rms(rot_deg), r.median, r.max);
+  std::printf("  translation rms %.1f mm, median %.1f, max %.1f\n", rms(trans_mm), t.median, t.max);
+  std::printf("  inliers     median %.0f, min %.0f\n", m.median, m.min);
+  std::printf("  worst frames (index: translation mm):");
+  for (std::size_t i = 0; i < std::min<std::size_t>(8, worst.size()); ++i)
+    std::printf(" %zu: %.1f", worst[i].second, worst[i].first);
+  std::printf("\n");
+}
+
+}  // namespace
+
+void add_frame_limit_verb(CLI::App& eval) {
+  auto args = std::make_shared<FrameLimitArgs>();
+  CLI::App& cmd = *eval.add_subcommand(
+      "frame-limit",
+      "Error of a frame's pose solved from the previous frame placed at its ground truth: what "
+      "the data allow any frame-to-frame tracker");
+  cmd.add_option("sequence", args->sequence, "Sequence folder with ground truth")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  cmd.add_option("--config", args->config, "Camera settings YAML (default: shipped file)");
+  cmd.add_option("--window", args->window_px, "Match search window (pixels)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd.add_flag("--json", args->json, "Machine-readable output on stdout");
+  cmd.callback([args] { run_frame_limit(*args); });
+}
+
+}  // namespace coloc::cli
