@@ -11,6 +11,7 @@
 #include <iostream>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
@@ -81,27 +82,27 @@ std::vector<slam::optim::PoseObservation> observations(const slam::frame::Frame&
   return obs;
 }
 
-void run_frame_limit(const FrameLimitArgs& args) {
-  const SlamInputs in = load_slam_inputs(args.sequence, args.config);
+// Per frame pair: rotation (deg) and translation (mm) error, pose-optimizer inliers.
+struct FrameLimit {
+  std::vector<double> rot_deg, trans_mm, inliers;
+  std::vector<std::pair<double, std::size_t>> worst;  // translation error, frame index
+};
+
+FrameLimit measure(const SlamInputs& in, double window_px) {
   const dataset::Sequence& seq = *in.sequence;
-  const Trajectory& gt = seq.ground_truth();
-  if (gt.empty()) throw Error("sequence has no ground truth", {args.sequence.string()});
-  if (!in.settings.depth) throw Error("settings without depth (Camera.bf)", {in.config.string()});
   const auto& orb = in.settings.orb;
   slam::features::OrbExtractor extractor(slam::features::ExtractorOptions{
       orb.n_features, orb.scale_factor, orb.n_levels, orb.ini_th_fast, orb.min_th_fast});
   std::shared_ptr<slam::frame::FrameGeometry> geometry;
-  slam::frame::Frame prev;
-  bool have_prev = false;
-  std::vector<double> rot_deg, trans_mm, matches;
-  std::vector<std::pair<double, std::size_t>> worst;  // translation error, frame index
+  std::optional<slam::frame::Frame> prev;
+  FrameLimit out;
   Progress progress("frame-limit", seq.size());
   for (std::size_t k = 0; k < seq.size(); ++k) {
     const auto f = seq.frame(k);
     progress.set(k + 1);
-    const auto world_from_cam = pose_at(gt, f.timestamp);
+    const auto world_from_cam = pose_at(seq.ground_truth(), f.timestamp);
     if (!world_from_cam) {
-      have_prev = false;
+      prev.reset();
       continue;
     }
     if (!geometry) {
@@ -122,39 +123,47 @@ void run_frame_limit(const FrameLimitArgs& args) {
                            extractor.extract(grey, &in.settings.camera), f.depth, geometry);
     cur.cam_from_world = world_from_cam->inverse();
     cur.has_pose = true;
-    if (have_prev) {
-      const auto obs = observations(prev, cur, args.window_px);
+    const auto obs =
+        prev ? observations(*prev, cur, window_px) : std::vector<slam::optim::PoseObservation>{};
+    if (obs.size() >= 10) {
       const slam::optim::Intrinsics intr{geometry->fx, geometry->fy, geometry->cx, geometry->cy,
                                          geometry->bf};
-      if (obs.size() >= 10) {
-        const auto r = slam::optim::optimize_pose(cur.cam_from_world, obs, intr);
-        const SE3 err = r.cam_from_world * *world_from_cam;  // identity when exact
-        rot_deg.push_back(err.so3().log().norm() * 180.0 / std::numbers::pi);
-        trans_mm.push_back(1e3 * err.inverse().translation().norm());
-        matches.push_back(r.inliers);
-        worst.emplace_back(trans_mm.back(), k);
-      }
+      const auto r = slam::optim::optimize_pose(cur.cam_from_world, obs, intr);
+      const SE3 err = r.cam_from_world * *world_from_cam;  // identity when exact
+      out.rot_deg.push_back(err.so3().log().norm() * 180.0 / std::numbers::pi);
+      out.trans_mm.push_back(1e3 * err.inverse().translation().norm());
+      out.inliers.push_back(r.inliers);
+      out.worst.emplace_back(out.trans_mm.back(), k);
     }
     prev = std::move(cur);
-    have_prev = true;
   }
   progress.finish();
-  if (rot_deg.empty())
+  std::sort(out.worst.rbegin(), out.worst.rend());
+  return out;
+}
+
+double rms(const std::vector<double>& v) {
+  double s = 0.0;
+  for (double x : v)
+    s += x * x;
+  return std::sqrt(s / static_cast<double>(v.size()));
+}
+
+void run_frame_limit(const FrameLimitArgs& args) {
+  const SlamInputs in = load_slam_inputs(args.sequence, args.config);
+  if (in.sequence->ground_truth().empty())
+    throw Error("sequence has no ground truth", {args.sequence.string()});
+  if (!in.settings.depth) throw Error("settings without depth (Camera.bf)", {in.config.string()});
+  const FrameLimit f = measure(in, args.window_px);
+  if (f.rot_deg.empty())
     throw Error("no frame pair with ground truth and depth", {args.sequence.string()});
-  auto rms = [](const std::vector<double>& v) {
-    double s = 0.0;
-    for (double x : v)
-      s += x * x;
-    return std::sqrt(s / static_cast<double>(v.size()));
-  };
-  const SampleStats r = summarize(rot_deg), t = summarize(trans_mm), m = summarize(matches);
-  std::sort(worst.rbegin(), worst.rend());
+  const SampleStats r = summarize(f.rot_deg), t = summarize(f.trans_mm), m = summarize(f.inliers);
   if (args.json) {
-    std::cout << "{\"pairs\": " << rot_deg.size()
-              << ", \"rotation_deg_rms\": " << json_number(rms(rot_deg))
+    std::cout << "{\"pairs\": " << f.rot_deg.size()
+              << ", \"rotation_deg_rms\": " << json_number(rms(f.rot_deg))
               << ", \"rotation_deg_median\": " << json_number(r.median)
               << ", \"rotation_deg_max\": " << json_number(r.max)
-              << ", \"translation_mm_rms\": " << json_number(rms(trans_mm))
+              << ", \"translation_mm_rms\": " << json_number(rms(f.trans_mm))
               << ", \"translation_mm_median\": " << json_number(t.median)
               << ", \"translation_mm_max\": " << json_number(t.max)
               << ", \"inliers_median\": " << json_number(m.median) << "}\n";
@@ -162,13 +171,15 @@ void run_frame_limit(const FrameLimitArgs& args) {
   }
   std::printf(
       "frame-to-frame limit over %zu frame pairs (previous frame at its ground-truth pose)\n",
-      rot_deg.size());
-  std::printf("  rotation    rms %.3f deg, median %.3f, max %.3f\n", rms(rot_deg), r.median, r.max);
-  std::printf("  translation rms %.1f mm, median %.1f, max %.1f\n", rms(trans_mm), t.median, t.max);
+      f.rot_deg.size());
+  std::printf("  rotation    rms %.3f deg, median %.3f, max %.3f\n", rms(f.rot_deg), r.median,
+              r.max);
+  std::printf("  translation rms %.1f mm, median %.1f, max %.1f\n", rms(f.trans_mm), t.median,
+              t.max);
   std::printf("  inliers     median %.0f, min %.0f\n", m.median, m.min);
   std::printf("  worst frames (index: translation mm):");
-  for (std::size_t i = 0; i < std::min<std::size_t>(8, worst.size()); ++i)
-    std::printf(" %zu: %.1f", worst[i].second, worst[i].first);
+  for (std::size_t i = 0; i < std::min<std::size_t>(8, f.worst.size()); ++i)
+    std::printf(" %zu: %.1f", f.worst[i].second, f.worst[i].first);
   std::printf("\n");
 }
 

@@ -22,6 +22,7 @@ class Id {
   constexpr bool valid() const { return value_ != kInvalidValue; }
   static constexpr Id invalid() { return Id(); }
 
+  // NOLINTNEXTLINE(modernize-use-nullptr): clang-tidy 14 misreads the defaulted comparison
   constexpr auto operator<=>(const Id&) const = default;
 
   friend std::ostream& operator<<(std::ostream& os, const Id& id) { return os << id.value_; }
