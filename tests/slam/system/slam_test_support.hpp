@@ -1,10 +1,14 @@
 #pragma once
 // Shared by the SLAM system tests: the shipped vocabulary (loaded once per test binary) and the
-// source tree it is read from.
+// source tree it is read from, a small test camera, and the map consistency check.
 #include <cstdlib>
 #include <filesystem>
+#include <memory>
+#include <string>
 
 #include "slam/bow/vocabulary.hpp"
+#include "slam/frame/frame.hpp"
+#include "slam/map/map.hpp"
 
 namespace coloc::slam::test_support {
 
@@ -19,6 +23,68 @@ inline const bow::Vocabulary& vocabulary() {
   static const bow::Vocabulary v =
       bow::Vocabulary::load(source_dir() / "Vocabulary/coloc_orb_k10_L5.cvoc");
   return v;
+}
+
+// 640x480 pinhole, f = 500, bf = 40, close depth 3 m, three pyramid levels.
+inline std::shared_ptr<const frame::FrameGeometry> test_geometry() {
+  PinholeCamera cam;
+  cam.width = 640;
+  cam.height = 480;
+  cam.fx = cam.fy = 500.0;
+  cam.cx = 320.0;
+  cam.cy = 240.0;
+  return std::make_shared<frame::FrameGeometry>(
+      frame::FrameGeometry::make(cam, 40.0, 3.0, {1.0f, 1.2f, 1.44f}));
+}
+
+// Every relation of the map checked from both sides; returns the first problem found.
+inline std::string map_problem(const map::Map& m) {
+  const auto id = [](auto k) { return std::to_string(k.value()); };
+  for (const auto& [pid, p] : m.points()) {
+    for (const auto& [k, idx] : p.observations) {
+      const map::Keyframe* kf = m.keyframe(k);
+      if (!kf) return "point " + id(pid) + " observed by missing keyframe " + id(k);
+      if (idx >= kf->frame.points.size() || kf->frame.points[idx] != pid)
+        return "point " + id(pid) + " not at its keypoint in keyframe " + id(k);
+    }
+    if (!m.keyframe(p.reference)) return "point " + id(pid) + " has a missing reference";
+  }
+  for (const auto& [k, kf] : m.keyframes()) {
+    for (std::size_t i = 0; i < kf.frame.points.size(); ++i) {
+      const MapPointId pid = kf.frame.points[i];
+      if (!pid.valid()) continue;
+      const map::MapPoint* p = m.point(pid);
+      if (!p) return "keyframe " + id(k) + " holds missing point " + id(pid);
+      auto o = p->observations.find(k);
+      if (o == p->observations.end() || o->second != i)
+        return "keyframe " + id(k) + " point " + id(pid) + " lacks the observation";
+    }
+    for (const auto& [other, w] : kf.covisibility) {
+      if (!m.keyframe(other)) return "keyframe " + id(k) + " covisible with missing " + id(other);
+    }
+    for (KeyframeId other : kf.covisible_ordered) {
+      if (!m.keyframe(other)) return "keyframe " + id(k) + " ordered with missing " + id(other);
+    }
+    for (KeyframeId c : kf.children) {
+      const map::Keyframe* child = m.keyframe(c);
+      if (!child) return "keyframe " + id(k) + " has missing child " + id(c);
+      if (child->parent != k) return "child " + id(c) + " of " + id(k) + " has another parent";
+    }
+    if (k == m.first_keyframe()) {
+      if (kf.parent.valid()) return "the first keyframe has a parent";
+      continue;
+    }
+    const map::Keyframe* parent = m.keyframe(kf.parent);
+    if (!parent) return "keyframe " + id(k) + " has missing parent " + id(kf.parent);
+    if (!parent->children.count(k)) return "parent of " + id(k) + " does not list it";
+    // Walking up must reach the root: no cycle.
+    KeyframeId up = k;
+    for (std::size_t hops = 0; up != m.first_keyframe(); ++hops) {
+      if (hops > m.keyframe_count()) return "spanning tree cycle through " + id(k);
+      up = m.keyframe(up)->parent;
+    }
+  }
+  return {};
 }
 
 }  // namespace coloc::slam::test_support

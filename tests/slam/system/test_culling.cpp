@@ -19,66 +19,9 @@
 namespace coloc::slam::system {
 namespace {
 
-// Every relation of the map checked from both sides; returns the first problem found.
-std::string map_problem(const map::Map& m) {
-  const auto id = [](auto k) { return std::to_string(k.value()); };
-  for (const auto& [pid, p] : m.points()) {
-    for (const auto& [k, idx] : p.observations) {
-      const map::Keyframe* kf = m.keyframe(k);
-      if (!kf) return "point " + id(pid) + " observed by missing keyframe " + id(k);
-      if (idx >= kf->frame.points.size() || kf->frame.points[idx] != pid)
-        return "point " + id(pid) + " not at its keypoint in keyframe " + id(k);
-    }
-    if (!m.keyframe(p.reference)) return "point " + id(pid) + " has a missing reference";
-  }
-  for (const auto& [k, kf] : m.keyframes()) {
-    for (std::size_t i = 0; i < kf.frame.points.size(); ++i) {
-      const MapPointId pid = kf.frame.points[i];
-      if (!pid.valid()) continue;
-      const map::MapPoint* p = m.point(pid);
-      if (!p) return "keyframe " + id(k) + " holds missing point " + id(pid);
-      auto o = p->observations.find(k);
-      if (o == p->observations.end() || o->second != i)
-        return "keyframe " + id(k) + " point " + id(pid) + " lacks the observation";
-    }
-    for (const auto& [other, w] : kf.covisibility) {
-      if (!m.keyframe(other)) return "keyframe " + id(k) + " covisible with missing " + id(other);
-    }
-    for (KeyframeId other : kf.covisible_ordered) {
-      if (!m.keyframe(other)) return "keyframe " + id(k) + " ordered with missing " + id(other);
-    }
-    for (KeyframeId c : kf.children) {
-      const map::Keyframe* child = m.keyframe(c);
-      if (!child) return "keyframe " + id(k) + " has missing child " + id(c);
-      if (child->parent != k) return "child " + id(c) + " of " + id(k) + " has another parent";
-    }
-    if (k == m.first_keyframe()) {
-      if (kf.parent.valid()) return "the first keyframe has a parent";
-      continue;
-    }
-    const map::Keyframe* parent = m.keyframe(kf.parent);
-    if (!parent) return "keyframe " + id(k) + " has missing parent " + id(kf.parent);
-    if (!parent->children.count(k)) return "parent of " + id(k) + " does not list it";
-    // Walking up must reach the root: no cycle.
-    KeyframeId up = k;
-    for (std::size_t hops = 0; up != m.first_keyframe(); ++hops) {
-      if (hops > m.keyframe_count()) return "spanning tree cycle through " + id(k);
-      up = m.keyframe(up)->parent;
-    }
-  }
-  return {};
-}
-
 // A keyframe with n keypoints on a row, all at depth 2 m, with distinct descriptors.
 map::Keyframe make_keyframe(map::Map& m, std::size_t n, double x) {
-  PinholeCamera cam;
-  cam.width = 640;
-  cam.height = 480;
-  cam.fx = cam.fy = 500.0;
-  cam.cx = 320.0;
-  cam.cy = 240.0;
-  static const auto geometry = std::make_shared<frame::FrameGeometry>(
-      frame::FrameGeometry::make(cam, 40.0, 3.0, {1.0f, 1.2f, 1.44f}));
+  static const auto geometry = test_support::test_geometry();
   features::OrbFeatures f;
   for (std::size_t i = 0; i < n; ++i) {
     features::Keypoint kp;
@@ -135,12 +78,12 @@ TEST(KeyframeCulling, ErasingAParentReattachesItsChildren) {
   ASSERT_EQ(m.keyframe(b)->parent, a);
   ASSERT_EQ(m.keyframe(c)->parent, b);
   ASSERT_EQ(m.keyframe(d)->parent, b);
-  ASSERT_EQ(map_problem(m), "");
+  ASSERT_EQ(test_support::map_problem(m), "");
 
   const SE3 pose_b = m.keyframe(b)->cam_from_world();
   m.erase_keyframe(b);
   EXPECT_FALSE(m.keyframe(b));
-  EXPECT_EQ(map_problem(m), "");
+  EXPECT_EQ(test_support::map_problem(m), "");
   for (KeyframeId k : {c, d}) {
     const KeyframeId parent = m.keyframe(k)->parent;
     EXPECT_TRUE(parent == a || parent == c) << "keyframe " << k.value();
@@ -168,9 +111,9 @@ TEST(KeyframeCulling, CovisibilityEdgesStaySymmetricThroughUpdatesAndErasure) {
     EXPECT_EQ(m.keyframe(k)->covisibility.count(c), m.keyframe(c)->covisibility.count(k))
         << "keyframe " << k;
   }
-  EXPECT_EQ(map_problem(m), "");
+  EXPECT_EQ(test_support::map_problem(m), "");
   m.erase_keyframe(c);
-  EXPECT_EQ(map_problem(m), "");
+  EXPECT_EQ(test_support::map_problem(m), "");
   EXPECT_EQ(m.keyframe(b)->covisibility.count(c), 0u);
   EXPECT_EQ(m.keyframe(a)->covisibility.count(c), 0u);
 }
@@ -207,7 +150,7 @@ TEST(KeyframeCulling, HoveringCameraCullsRedundantKeyframesAndKeepsTheMapConsist
   EXPECT_GT(s.mapping.keyframes_culled, 0);  // 14 of 33 when written
   EXPECT_EQ(s.keyframes + static_cast<std::size_t>(s.mapping.keyframes_culled),
             static_cast<std::size_t>(keyframes_made));
-  EXPECT_EQ(slam.with_map(map_problem), "");
+  EXPECT_EQ(slam.with_map(test_support::map_problem), "");
   // Frames whose reference keyframe was culled still get poses (through the erased chain).
   const Trajectory estimate = slam.trajectory();
   ASSERT_EQ(estimate.size(), truth.size());

@@ -15,36 +15,10 @@
 namespace coloc::slam::system {
 namespace {
 
-std::shared_ptr<const frame::FrameGeometry> test_geometry() {
-  PinholeCamera cam;
-  cam.width = 640;
-  cam.height = 480;
-  cam.fx = cam.fy = 500.0;
-  cam.cx = 320.0;
-  cam.cy = 240.0;
-  return std::make_shared<frame::FrameGeometry>(
-      frame::FrameGeometry::make(cam, 40.0, 3.0, {1.0f, 1.2f, 1.44f}));
-}
-
-// The checks every finished map must pass: each observation names a live keyframe whose
-// keypoint points back at the point.
-void expect_consistent(const map::Map& m) {
-  for (const auto& [id, p] : m.points()) {
-    for (const auto& [k, idx] : p.observations) {
-      const map::Keyframe* kf = m.keyframe(k);
-      if (kf == nullptr) {
-        ADD_FAILURE() << "point " << id << " observed by missing keyframe " << k;
-        continue;
-      }
-      EXPECT_EQ(kf->frame.points[idx], id);
-    }
-  }
-}
-
 TEST(GlobalBundleAdjustment, RecoversPerturbedPosesAndPoints) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> uni(-1.0, 1.0);
-  const auto geometry = test_geometry();
+  const auto geometry = test_support::test_geometry();
   std::vector<Eigen::Vector3d> world;
   for (int i = 0; i < 300; ++i)
     world.emplace_back(1.5 * uni(rng), 1.0 * uni(rng), 2.75 + 1.25 * uni(rng));
@@ -120,7 +94,7 @@ TEST(GlobalBundleAdjustment, RecoversPerturbedPosesAndPoints) {
       }
     }
   }
-  expect_consistent(m);
+  EXPECT_EQ(test_support::map_problem(m), "");
 }
 
 TEST(GlobalBundleAdjustment, KeepsASlamMapConsistentAndAccurate) {
@@ -142,7 +116,7 @@ TEST(GlobalBundleAdjustment, KeepsASlamMapConsistentAndAccurate) {
   EXPECT_LE(report.final_rms_px, report.initial_rms_px);
   EXPECT_LT(report.outliers, report.observations / 20);
   EXPECT_LT(eval::compute_ate(truth, slam.trajectory()).translation.rmse, 0.005);
-  slam.with_map(expect_consistent);
+  EXPECT_EQ(slam.with_map(test_support::map_problem), "");
 }
 
 }  // namespace

@@ -1,20 +1,10 @@
 #include <gtest/gtest.h>
 
 #include "slam/map/map.hpp"
+#include "tests/slam/system/slam_test_support.hpp"
 
 namespace coloc::slam::map {
 namespace {
-
-std::shared_ptr<const frame::FrameGeometry> geometry() {
-  PinholeCamera cam;
-  cam.width = 640;
-  cam.height = 480;
-  cam.fx = cam.fy = 500.0;
-  cam.cx = 320.0;
-  cam.cy = 240.0;
-  return std::make_shared<frame::FrameGeometry>(
-      frame::FrameGeometry::make(cam, 40.0, 3.0, {1.0f, 1.2f, 1.44f}));
-}
 
 // A keyframe with n keypoints on a row, all at depth 2 m, with distinct descriptors.
 Keyframe make_keyframe(Map& map, std::size_t n, const Eigen::Vector3d& centre) {
@@ -31,7 +21,7 @@ Keyframe make_keyframe(Map& map, std::size_t n, const Eigen::Vector3d& centre) {
   cv::Mat depth(480, 640, CV_32FC1, cv::Scalar(2.0f));
   Keyframe kf;
   kf.id = map.next_keyframe_id();
-  kf.frame = frame::Frame(FrameId(kf.id.value()), 0.0, f, depth, geometry());
+  kf.frame = frame::Frame(FrameId(kf.id.value()), 0.0, f, depth, test_support::test_geometry());
   kf.frame.cam_from_world = SE3(SO3(), -centre);
   return kf;
 }
