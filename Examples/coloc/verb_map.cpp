@@ -42,6 +42,7 @@ struct RunResult {
   // The trajectory as tracking left it (before the global BA), and the BA's report.
   std::optional<eval::AteResult> ate_online;
   std::optional<slam::mapping::GlobalBaReport> global_ba;
+  std::size_t skipped_frames = 0;  // unreadable images (named in the log)
 };
 
 std::optional<eval::AteResult> ate_of(const dataset::Sequence& sequence, const Trajectory& t) {
@@ -55,14 +56,24 @@ RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& 
   options.sequential_mapping = sequential;
   slam::system::System slam(settings, vocabulary, options);
   Progress progress("slam", sequence.size());
+  RunResult r;
   for (std::size_t i = 0; i < sequence.size(); ++i) {
-    const auto frame = sequence.frame(i);
-    slam.track(frame.color, frame.depth, frame.timestamp);
     progress.set(i + 1);
+    dataset::Frame frame;
+    try {
+      frame = sequence.frame(i);
+    } catch (const Error& e) {
+      // One unreadable image must not cost the whole session: skip it, say which, go on.
+      spdlog::warn("frame {} skipped: {}", i, e.what());
+      ++r.skipped_frames;
+      continue;
+    }
+    slam.track(frame.color, frame.depth, frame.timestamp);
   }
   progress.finish();
+  if (r.skipped_frames == sequence.size())
+    throw Error("no frame of the sequence could be read (see the warnings)");
   slam.shutdown();
-  RunResult r;
   r.ate_online = ate_of(sequence, slam.trajectory());
   if (global_ba) r.global_ba = slam.optimize_map();
   r.summary = slam.summary();
@@ -98,9 +109,12 @@ void run_map(const MapArgs& args) {
               << ", \"ms_per_frame_p99\": " << json_number(s.total_ms.p99)
               << ", \"ate_rmse_m\": " << (r.ate ? json_number(r.ate->translation.rmse) : "null")
               << ", \"ate_rmse_online_m\": "
-              << (r.ate_online ? json_number(r.ate_online->translation.rmse) : "null") << "}\n";
+              << (r.ate_online ? json_number(r.ate_online->translation.rmse) : "null")
+              << ", \"skipped_frames\": " << r.skipped_frames << "}\n";
   } else {
     std::cout << s.describe() << "\n";
+    if (r.skipped_frames > 0)
+      std::cout << "skipped " << r.skipped_frames << " unreadable frames (see the warnings)\n";
     if (r.global_ba)
       std::cout << "global BA: " << r.global_ba->keyframes << " keyframes, " << r.global_ba->points
                 << " points, rms " << r.global_ba->initial_rms_px << " -> "

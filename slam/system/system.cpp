@@ -111,7 +111,7 @@ void System::shutdown() {
 mapping::GlobalBaReport System::optimize_map(const mapping::GlobalBaOptions& options) {
   shutdown();
   const mapping::GlobalBaReport report = mapping::global_bundle_adjustment(*shared_, options);
-  spdlog::info(
+  spdlog::debug(
       "global BA: {} keyframes, {} points, {} observations ({} outliers removed), rms {:.3f} -> "
       "{:.3f} px, {} iterations, {:.0f} ms",
       report.keyframes, report.points, report.observations, report.outliers, report.initial_rms_px,
