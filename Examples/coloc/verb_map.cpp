@@ -1,14 +1,13 @@
-// coloc map: RGB-D SLAM over a recorded sequence (TUM, 7-Scenes), writing the trajectory in
-// TUM format. coloc bench track: tracking time per frame by stage (median, p99), local BA time
+// coloc map: RGB-D SLAM over a recorded sequence (TUM, 7-Scenes, twin), a global BA of the
+// finished map, and the trajectory in TUM format. coloc bench track: tracking time per frame by stage (median, p99), local BA time
 // and ATE, over one or more runs (threads make runs differ; several runs show the spread).
 
 #include <spdlog/spdlog.h>
 
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <iostream>
-#include <sstream>
+#include <optional>
 
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
