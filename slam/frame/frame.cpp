@@ -5,6 +5,7 @@
 #include <opencv2/core.hpp>
 
 #include "slam/core/error.hpp"
+#include "slam/frame/rolling_shutter.hpp"
 
 namespace coloc::slam::frame {
 
@@ -129,6 +130,17 @@ std::vector<std::size_t> Frame::features_in_area(double x, double y, double radi
     }
   }
   return out;
+}
+
+void Frame::compensate_rolling_shutter(const Eigen::Vector3d& omega_cam, int image_rows) {
+  const FrameGeometry& g = *geometry_;
+  frame::compensate_rolling_shutter(features, {g.readout, image_rows}, omega_cam, g.fx, g.fy, g.cx,
+                                    g.cy);
+  for (std::size_t i = 0; i < features.size(); ++i) {
+    if (depth[i] > 0.0f)
+      u_right[i] = static_cast<float>(features.keypoints[i].ux - g.bf / depth[i]);
+  }
+  assign_grid();
 }
 
 std::size_t Frame::tracked_count() const {

@@ -28,6 +28,7 @@ struct FrameGeometry {
   double close_depth = 0.0;  // metres: nearer keypoints are "close" (ThDepth * baseline)
   double min_depth = 0.1;    // metres: depth readings outside [min, max] count as invalid
   double max_depth = 10.0;
+  double readout = 0.0;  // seconds, rolling-shutter readout of the colour camera (0 = global)
   // Undistorted image bounds (pixels) that the grid covers.
   double min_x = 0.0, max_x = 0.0, min_y = 0.0, max_y = 0.0;
   int grid_cols = 64;
@@ -88,6 +89,10 @@ class Frame {
   std::vector<std::size_t> features_in_area(double x, double y, double radius, int min_level = 0,
                                             int max_level = -1) const;
   std::size_t tracked_count() const;  // keypoints with a valid point that are not outliers
+  // Rolling-shutter compensation (slam/frame/rolling_shutter.hpp) with the geometry's readout
+  // time and the camera's angular velocity (rad/s, camera frame): moves the undistorted
+  // keypoints, their virtual right coordinates and the grid. Apply once per frame.
+  void compensate_rolling_shutter(const Eigen::Vector3d& omega_cam, int image_rows);
 
  private:
   void assign_grid();

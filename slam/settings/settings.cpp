@@ -192,6 +192,9 @@ Settings load_settings(const std::filesystem::path& path) {
   s.camera = read_camera(keys, s.file_version);
   s.fps = keys.number("Camera.fps").value_or(s.fps);
   s.rgb_order = keys.integer("Camera.RGB").value_or(1) != 0;
+  s.readout_time = keys.number("Camera.readoutTime").value_or(0.0);
+  if (!(s.readout_time >= 0.0 && s.readout_time < 1.0))
+    keys.fail("Camera.readoutTime", "must be in [0, 1) seconds");
   s.depth = read_depth(keys, s.file_version, intrinsic_matrix(s.camera)(0, 0));
   s.orb = read_orb(keys);
   s.markers.dictionary = keys.text("Markers.dictionary").value_or(s.markers.dictionary);

@@ -49,6 +49,9 @@ struct Settings {
   int file_version = 0;  // 0: ORB-SLAM2 style keys, 1: ORB-SLAM3 v1.0 keys
   Camera camera;         // width/height are 0 when the file does not give them
   double fps = 30.0;
+  // Camera.readoutTime (coloc's key): seconds from the first to the last row of a rolling-shutter
+  // colour camera; 0 = global shutter. Tracking compensates it with the motion model's rotation.
+  double readout_time = 0.0;
   bool rgb_order = true;  // Camera.RGB: 1 = images are RGB, 0 = BGR
   std::optional<DepthSettings> depth;
   OrbSettings orb;

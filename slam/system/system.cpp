@@ -94,6 +94,7 @@ void System::start_tracking(int width, int height) {
   const features::OrbExtractor probe(extractor_);
   auto geometry = std::make_shared<frame::FrameGeometry>(frame::FrameGeometry::make(
       settings_.camera, settings_.depth->bf, settings_.depth->close_depth, probe.scale_factors()));
+  geometry->readout = settings_.readout_time;
   geometry->check();
   tracker_ = std::make_unique<tracking::Tracker>(*shared_, *mapper_, vocabulary_, geometry,
                                                  extractor_, settings_.camera, options_.tracking,

@@ -98,6 +98,7 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
       }
       if (ok) {
         if (last_.has_pose) {
+          refine_rolling_shutter(grey.rows);
           velocity_ = current_.cam_from_world * last_.cam_from_world.inverse();
           has_velocity_ = true;
         }
@@ -135,6 +136,21 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
   spdlog::debug("tracking: frame {} state {} inliers {} keyframe {}", current_.id.value(),
                 to_string(state_), matches_inliers_, result.keyframe);
   return result;
+}
+
+void Tracker::refine_rolling_shutter(int image_rows) {
+  const double dt = current_.timestamp - last_.timestamp;
+  if (!(geometry_->readout > 0.0) || !(dt > 0.0)) return;
+  // The rotation from the last frame to this one, tracked with the uncompensated keypoints: its
+  // rate is the best estimate of the turn during this frame's readout (measured with `coloc eval
+  // frame-limit`: the rate of the previous frame pair, one frame late, makes things worse).
+  const SE3 current_from_last = current_.cam_from_world * last_.cam_from_world.inverse();
+  const int before = static_cast<int>(current_.tracked_count());
+  frame::Frame uncompensated = current_;
+  current_.compensate_rolling_shutter(-current_from_last.so3().log() / dt, image_rows);
+  const int after = optimize_frame_pose(current_, shared_.map);
+  // A poorly tracked frame gives a wrong rate; compensation must then not cost inliers.
+  if (after < before) current_ = std::move(uncompensated);
 }
 
 void Tracker::record_frame(bool tracked) {

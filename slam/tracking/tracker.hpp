@@ -85,6 +85,9 @@ class Tracker {
   bool need_keyframe() const;
   void create_keyframe(const cv::Mat& grey);
   void compute_bow(frame::Frame& frame) const;
+  // Rolling shutter: compensates current_'s keypoints with the rotation rate from last_ to
+  // current_ and re-optimizes the pose (no-op for a global-shutter camera).
+  void refine_rolling_shutter(int image_rows);
   void record_frame(bool tracked);  // appends current_ to records_ (map lock held)
 
   map::SharedMap& shared_;

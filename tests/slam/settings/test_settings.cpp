@@ -115,6 +115,17 @@ TEST(Settings, BrokenFilesNameKeyAndFile) {
   expect_error(write("no_bf.yaml", std::string(kMinimal) + "ThDepth: 40.0\n"), "Camera.bf");
   expect_error(write("version.yaml", std::string("File.version: \"2.0\"\n") + kMinimal),
                "File.version");
+  expect_error(write("readout.yaml", std::string(kMinimal) + "Camera.readoutTime: -0.02\n"),
+               "Camera.readoutTime");
+}
+
+// coloc's rolling-shutter key: absent = global shutter; the shipped TUM file gives the Kinect's.
+TEST(Settings, ReadoutTime) {
+  EXPECT_EQ(load_settings(write("minimal.yaml", kMinimal)).readout_time, 0.0);
+  const Settings s =
+      load_settings(write("readout_ok.yaml", std::string(kMinimal) + "Camera.readoutTime: 0.02\n"));
+  EXPECT_DOUBLE_EQ(s.readout_time, 0.02);
+  EXPECT_TRUE(s.warnings.empty());
 }
 
 TEST(Settings, UnreadableFilesAreErrors) {
