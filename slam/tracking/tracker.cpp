@@ -35,6 +35,8 @@ void TrackingOptions::check() const {
   if (max_frames_between_keyframes < 1)
     throw Error("TrackingOptions.max_frames_between_keyframes must be >= 1");
   if (max_local_keyframes < 1) throw Error("TrackingOptions.max_local_keyframes must be >= 1");
+  if (!(rolling_shutter_keep_ratio > 0.0 && rolling_shutter_keep_ratio <= 1.0))
+    throw Error("TrackingOptions.rolling_shutter_keep_ratio must be in (0, 1]");
   relocalization.check();
 }
 
@@ -149,8 +151,9 @@ void Tracker::refine_rolling_shutter(int image_rows) {
   frame::Frame uncompensated = current_;
   current_.compensate_rolling_shutter(-current_from_last.so3().log() / dt, image_rows);
   const int after = optimize_frame_pose(current_, shared_.map);
-  // A poorly tracked frame gives a wrong rate; compensation must then not cost inliers.
-  if (after < before) current_ = std::move(uncompensated);
+  // A poorly tracked (blurred) frame gives a wrong rate: the compensation is undone when it costs
+  // inliers (a ratio below 0.8 let fr1/rpy diverge; 1.0 undid half of the useful ones).
+  if (after < options_.rolling_shutter_keep_ratio * before) current_ = std::move(uncompensated);
 }
 
 void Tracker::record_frame(bool tracked) {

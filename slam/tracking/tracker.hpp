@@ -35,6 +35,9 @@ struct TrackingOptions {
   int close_untracked_limit = 70;  // ... and more close untracked ones => new keyframe
   int new_points_min = 100;        // new close points per keyframe (then stop at far depth)
   std::size_t max_local_keyframes = 80;
+  // Rolling-shutter compensation is kept when the re-optimized pose keeps at least this share
+  // of the frame's inliers.
+  double rolling_shutter_keep_ratio = 0.9;
   reloc::RelocalizationOptions relocalization;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
