@@ -9,6 +9,7 @@
 
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
+#include "slam/frame/rolling_shutter.hpp"
 #include "slam/tracking/pose_support.hpp"
 #include "slam/tracking/search.hpp"
 
@@ -37,6 +38,8 @@ void TrackingOptions::check() const {
   if (max_local_keyframes < 1) throw Error("TrackingOptions.max_local_keyframes must be >= 1");
   if (!(rolling_shutter_keep_ratio > 0.0 && rolling_shutter_keep_ratio <= 1.0))
     throw Error("TrackingOptions.rolling_shutter_keep_ratio must be in (0, 1]");
+  if (!(rolling_shutter_rate_sigma >= 0.0))
+    throw Error("TrackingOptions.rolling_shutter_rate_sigma must be >= 0");
   relocalization.check();
 }
 
@@ -149,8 +152,33 @@ void Tracker::refine_rolling_shutter(int image_rows) {
   const SE3 current_from_last = current_.cam_from_world * last_.cam_from_world.inverse();
   const int before = static_cast<int>(current_.tracked_count());
   frame::Frame uncompensated = current_;
-  current_.compensate_rolling_shutter(-current_from_last.so3().log() / dt, image_rows);
-  const int after = optimize_frame_pose(current_, shared_.map);
+  const Eigen::Vector3d pose_rate = -current_from_last.so3().log() / dt;
+  current_.compensate_rolling_shutter(pose_rate, image_rows);
+  int after = optimize_frame_pose(current_, shared_.map);
+  if (options_.rolling_shutter_rate_sigma > 0.0) {
+    // The two-pose rate is noisy (two poses' errors over 33 ms): refine it with what the rows'
+    // shear in this image asks for, then compensate again from the raw keypoints.
+    std::vector<frame::RateObservation> obs;
+    const frame::RollingShutter shutter{geometry_->readout, image_rows};
+    for (std::size_t i = 0; i < current_.size(); ++i) {
+      if (!current_.points[i].valid() || current_.outlier[i]) continue;
+      const map::MapPoint* p = shared_.map.point(current_.points[i]);
+      if (!p) continue;
+      const auto& kp = uncompensated.features.keypoints[i];
+      obs.push_back({current_.cam_from_world * p->position,
+                     {kp.ux, kp.uy},
+                     frame::row_time(kp.y, shutter),
+                     1.0 / geometry_->scale_factors[static_cast<std::size_t>(kp.level)]});
+    }
+    const Eigen::Vector3d rate =
+        frame::estimate_rotation_rate(obs, pose_rate, options_.rolling_shutter_rate_sigma,
+                                      geometry_->fx, geometry_->fy, geometry_->cx, geometry_->cy);
+    frame::Frame refined = uncompensated;
+    refined.cam_from_world = current_.cam_from_world;
+    refined.compensate_rolling_shutter(rate, image_rows);
+    after = optimize_frame_pose(refined, shared_.map);
+    current_ = std::move(refined);
+  }
   // A poorly tracked (blurred) frame gives a wrong rate: the compensation is undone when it costs
   // inliers (a ratio below 0.8 let fr1/rpy diverge; 1.0 undid half of the useful ones).
   if (after < options_.rolling_shutter_keep_ratio * before) current_ = std::move(uncompensated);

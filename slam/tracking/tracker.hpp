@@ -38,6 +38,9 @@ struct TrackingOptions {
   // Rolling-shutter compensation is kept when the re-optimized pose keeps at least this share
   // of the frame's inliers.
   double rolling_shutter_keep_ratio = 0.9;
+  // Prior sigma (rad/s) of the two-pose rotation rate when the rate is refined from the image's
+  // row shear; 0 = use the two-pose rate as it is. (0.3 let fr1/rpy diverge in sequential runs.)
+  double rolling_shutter_rate_sigma = 1.0;
   reloc::RelocalizationOptions relocalization;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
