@@ -54,7 +54,7 @@ Tracker::Tracker(map::SharedMap& map, mapping::LocalMapper& mapper,
       geometry_(std::move(geometry)),
       extractor_(extractor),
       camera_(camera),
-      options_(std::move(options)),
+      options_(options),
       sequential_(sequential_mapping) {
   options_.check();
   geometry_->check();
