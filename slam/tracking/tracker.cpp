@@ -119,7 +119,7 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
     if (state_ != TrackingState::kNotInitialized) record_frame(ok);
     if (make_keyframe) {
       Stopwatch stage;
-      create_keyframe(grey);
+      create_keyframe();
       result.keyframe_ms += stage.elapsed_ms();
     }
   }
@@ -204,12 +204,7 @@ bool Tracker::initialize() {
   map::Map& m = shared_.map;
   current_.cam_from_world = SE3();
   current_.has_pose = true;
-  compute_bow(current_);
-  map::Keyframe kf;
-  kf.id = m.next_keyframe_id();
-  kf.frame = current_;
-  const KeyframeId id = kf.id;
-  m.add_keyframe(std::move(kf));
+  const KeyframeId id = add_current_keyframe();
   for (std::size_t i = 0; i < current_.size(); ++i) {
     if (!current_.has_depth(i)) continue;
     const MapPointId p =
@@ -401,15 +396,18 @@ bool Tracker::need_keyframe() const {
   return mapper_.queued() < 3;
 }
 
-void Tracker::create_keyframe(const cv::Mat&) {
-  map::Map& m = shared_.map;
+KeyframeId Tracker::add_current_keyframe() {
   compute_bow(current_);
-  drop_outliers(current_);
   map::Keyframe kf;
-  kf.id = m.next_keyframe_id();
+  kf.id = shared_.map.next_keyframe_id();
   kf.frame = current_;
-  const KeyframeId id = kf.id;
-  m.add_keyframe(std::move(kf));
+  return shared_.map.add_keyframe(std::move(kf)).id;
+}
+
+void Tracker::create_keyframe() {
+  map::Map& m = shared_.map;
+  drop_outliers(current_);
+  const KeyframeId id = add_current_keyframe();
   // New points from depth: every close keypoint without a point, then far ones up to a quota.
   std::vector<std::pair<float, std::size_t>> by_depth;
   for (std::size_t i = 0; i < current_.size(); ++i) {

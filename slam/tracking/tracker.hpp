@@ -89,7 +89,9 @@ class Tracker {
   bool track_local_map();
   void update_local_map();
   bool need_keyframe() const;
-  void create_keyframe(const cv::Mat& grey);
+  void create_keyframe();
+  // Inserts current_ (with its BoW vector) into the map as a new keyframe.
+  KeyframeId add_current_keyframe();
   void compute_bow(frame::Frame& frame) const;
   // Rolling shutter: compensates current_'s keypoints with the rotation rate from last_ to
   // current_ and re-optimizes the pose (no-op for a global-shutter camera).
