@@ -21,6 +21,7 @@
 
 #include "markers/synthetic.hpp"
 #include "slam/core/camera.hpp"
+#include "slam/core/cube_map.hpp"
 #include "slam/core/so3.hpp"
 
 namespace coloc::markers {
@@ -46,13 +47,8 @@ struct PanoramaModel {
   Eigen::Vector2d pixel(const Eigen::Vector3d& direction) const;
 };
 
-inline constexpr int kCubeFaces = 6;
-// "+x", "-x", "+y", "-y", "+z", "-z".
-const char* cube_face_name(int face);
-// panorama_from_face rotation of each face.
-std::array<SO3, kCubeFaces> cube_face_rotations();
-// The 90-degree pinhole of a size x size face: f = size / 2, principal point at the centre.
-PinholeCamera cube_face_camera(int size);
+// Cube faces (kCubeFaces, cube_face_name, cube_face_rotations = panorama_from_face,
+// cube_face_camera): slam/core/cube_map.hpp, shared with the twin's scanner.
 
 // Resamples one cube face (bilinear) from an 8-bit panorama (1 or 3 channels) described by
 // `model`. Pixels whose direction falls outside the panorama are black. Throws coloc::Error when

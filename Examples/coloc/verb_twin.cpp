@@ -10,6 +10,7 @@
 #include "registration/render/renderer.hpp"
 #include "registration/twin/generator.hpp"
 #include "registration/twin/scene.hpp"
+#include "slam/core/cube_map.hpp"
 #include "slam/core/timing.hpp"
 
 namespace coloc::cli {
@@ -126,13 +127,15 @@ void run_bench(const BenchArgs& a) {
   twin::ScanOptions scan;
   scan.face_size = a.face_size;
   scan.point_step = std::max(1, a.face_size / 512);
-  const auto rotations = render::cube_face_rotations();
-  const PinholeCamera face = render::cube_face_camera(a.face_size);
+  const auto rotations = cube_face_rotations();
+  const PinholeCamera face = cube_face_camera(a.face_size);
   const SE3 world_from_station(SO3(), scene.plan.stations.front());
   for (int f = 0; f < a.faces; ++f) {
     Stopwatch sw;
     renderer.render(face,
-                    (world_from_station * rotations[static_cast<std::size_t>(f % 6)]).inverse(),
+                    (world_from_station *
+                     SE3(rotations[static_cast<std::size_t>(f % 6)], Eigen::Vector3d::Zero()))
+                        .inverse(),
                     render::Layer::kMesh);
     faces.push_back(sw.elapsed_ms());
   }

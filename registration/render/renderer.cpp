@@ -486,36 +486,4 @@ RenderResult Renderer::render(const PinholeCamera& camera, const SE3& cam_from_w
   return r;
 }
 
-std::array<SE3, 6> cube_face_rotations() {
-  // (viewing direction, image-down direction) in the station frame (z up).
-  const std::array<std::pair<Eigen::Vector3d, Eigen::Vector3d>, 6> faces{{
-      {Eigen::Vector3d::UnitX(), -Eigen::Vector3d::UnitZ()},
-      {-Eigen::Vector3d::UnitX(), -Eigen::Vector3d::UnitZ()},
-      {Eigen::Vector3d::UnitY(), -Eigen::Vector3d::UnitZ()},
-      {-Eigen::Vector3d::UnitY(), -Eigen::Vector3d::UnitZ()},
-      {Eigen::Vector3d::UnitZ(), -Eigen::Vector3d::UnitX()},
-      {-Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitX()},
-  }};
-  std::array<SE3, 6> out;
-  for (std::size_t i = 0; i < 6; ++i) {
-    const Eigen::Vector3d& z = faces[i].first;
-    const Eigen::Vector3d& y = faces[i].second;
-    Eigen::Matrix3d r;
-    r.col(0) = y.cross(z);
-    r.col(1) = y;
-    r.col(2) = z;
-    out[i] = SE3(SO3::from_matrix(r), Eigen::Vector3d::Zero());
-  }
-  return out;
-}
-
-PinholeCamera cube_face_camera(int size) {
-  PinholeCamera c;
-  c.width = size;
-  c.height = size;
-  c.fx = c.fy = size / 2.0;
-  c.cx = c.cy = (size - 1) / 2.0;
-  return c;
-}
-
 }  // namespace coloc::registration::render

@@ -73,10 +73,4 @@ class Renderer {
   std::unique_ptr<Impl> impl_;
 };
 
-// The six faces of a cube map at one station: 90-degree pinhole cameras of size x size looking
-// along +x, -x, +y, -y, +z, -z of the station frame. Returns station_from_face rotations
-// (translation zero) in that order, and the matching camera.
-std::array<SE3, 6> cube_face_rotations();
-PinholeCamera cube_face_camera(int size);
-
 }  // namespace coloc::registration::render

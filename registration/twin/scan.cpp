@@ -4,6 +4,7 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
+#include "slam/core/cube_map.hpp"
 #include "slam/core/error.hpp"
 
 namespace coloc::registration::twin {
@@ -25,14 +26,14 @@ ScanStation scan_station(render::Renderer& renderer, int index, const SE3& world
   ScanStation st;
   st.index = index;
   st.world_from_station = world_from_station;
-  st.face_camera = render::cube_face_camera(options.face_size);
+  st.face_camera = cube_face_camera(options.face_size);
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> noise(0.0, options.range_noise);
   const SE3 station_from_world = world_from_station.inverse();
-  const auto rotations = render::cube_face_rotations();
+  const auto rotations = cube_face_rotations();
   const int step = options.point_step;
   for (std::size_t f = 0; f < 6; ++f) {
-    st.world_from_face[f] = world_from_station * rotations[f];
+    st.world_from_face[f] = world_from_station * SE3(rotations[f], Eigen::Vector3d::Zero());
     const render::RenderResult r =
         renderer.render(st.face_camera, st.world_from_face[f].inverse(), render::Layer::kMesh);
     st.faces[f] = r.colour;

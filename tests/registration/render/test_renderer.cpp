@@ -222,25 +222,6 @@ TEST(Renderer, PointCloudGivesExactPointsAndMatchesMeshDepth) {
   EXPECT_EQ(covered, cam.width * cam.height);
 }
 
-TEST(Renderer, CubeFacesTileTheSphere) {
-  const auto faces = cube_face_rotations();
-  const PinholeCamera cam = cube_face_camera(64);
-  for (const SE3& f : faces) {
-    EXPECT_NEAR(f.rotation().determinant(), 1.0, 1e-12);
-  }
-  // Every direction falls inside exactly one face (directions off the face boundaries).
-  for (int k = 0; k < 200; ++k) {
-    const Eigen::Vector3d d(std::sin(k * 1.7) + 0.013, std::cos(k * 2.3), std::sin(k * 0.37));
-    int inside = 0;
-    for (const SE3& station_from_face : faces) {
-      const Eigen::Vector3d p = station_from_face.inverse() * d;
-      if (p.z() <= 0) continue;
-      if (in_image(cam, cam.project(p), -0.5)) ++inside;
-    }
-    EXPECT_EQ(inside, 1) << k;
-  }
-}
-
 TEST(Renderer, RejectsBadInput) {
   Renderer renderer;
   TexturedMesh bad = quad({0, 0, 1}, {1, 0, 0}, {0, 1, 0}, checker(8, 2));
