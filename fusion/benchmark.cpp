@@ -28,15 +28,7 @@ SampleStats time_fused_pose(int batches, int batch) {
   options.duration = 20.0;
   const SimulatedSession s = simulate_session(options);
   DriftFuser fuser(ours_options());
-  // Warm up: a full headset buffer and an initialized filter.
-  std::size_t g = 0;
-  for (const StampedPose& h : s.headset) {
-    while (g < s.global.size() && s.global[g].arrival_time <= h.timestamp) {
-      fuser.push_global_pose(s.global[g].exposure_time, s.global[g].world_from_head);
-      ++g;
-    }
-    fuser.push_xr_pose(h.timestamp, h.world_from_cam);
-  }
+  replay_session(s, fuser);  // warm up: a full headset buffer and an initialized filter
   double t = s.headset.back().timestamp;
   const SE3 pose = s.headset.back().world_from_cam;
   std::vector<double> per_call;

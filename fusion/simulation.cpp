@@ -122,6 +122,10 @@ SimulatedSession simulate_session(const SessionOptions& options) {
 
 Trajectory replay_session(const SimulatedSession& session, const FuserOptions& options) {
   DriftFuser fuser(options);
+  return replay_session(session, fuser);
+}
+
+Trajectory replay_session(const SimulatedSession& session, DriftFuser& fuser) {
   Trajectory out;
   out.reserve(session.headset.size());
   std::size_t g = 0;

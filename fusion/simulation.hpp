@@ -67,6 +67,8 @@ SE3 simulated_head_pose(double time);
 
 // Feeds the session to a DriftFuser in arrival order; returns one fused pose per headset sample.
 Trajectory replay_session(const SimulatedSession& session, const FuserOptions& options);
+// The same into a given fuser (e.g. to warm it up before timing it).
+Trajectory replay_session(const SimulatedSession& session, DriftFuser& fuser);
 // The headset with only the initial true alignment (what the user sees without fusion).
 Trajectory raw_headset(const SimulatedSession& session);
 

@@ -17,14 +17,7 @@ DriftFuser warm_fuser(const FuserOptions& options, double& t) {
   session.duration = 10.0;
   const SimulatedSession s = simulate_session(session);
   DriftFuser fuser(options);
-  std::size_t g = 0;
-  for (const StampedPose& h : s.headset) {
-    while (g < s.global.size() && s.global[g].arrival_time <= h.timestamp) {
-      fuser.push_global_pose(s.global[g].exposure_time, s.global[g].world_from_head);
-      ++g;
-    }
-    fuser.push_xr_pose(h.timestamp, h.world_from_cam);
-  }
+  replay_session(s, fuser);
   t = s.headset.back().timestamp;
   return fuser;
 }
