@@ -60,21 +60,16 @@ std::vector<slam::optim::PoseObservation> observations(const slam::frame::Frame&
   for (std::size_t i = 0; i < prev.size(); ++i) {
     if (!prev.has_depth(i)) continue;
     const auto& kp = prev.features.keypoints[i];
-    int best = 256, second = 256;
-    std::size_t best_j = 0;
+    slam::features::NearestTwo nearest;
     for (std::size_t j :
          cur.features_in_area(kp.ux, kp.uy, window, std::max(0, kp.level - 1), kp.level + 1)) {
-      const int d = slam::features::hamming_distance(prev.features.descriptors[i],
-                                                     cur.features.descriptors[j]);
-      if (d < best) {
-        second = best;
-        best = d;
-        best_j = j;
-      } else if (d < second) {
-        second = d;
-      }
+      nearest.offer(slam::features::hamming_distance(prev.features.descriptors[i],
+                                                     cur.features.descriptors[j]),
+                    j);
     }
-    if (best > slam::tracking::kDescriptorLow || best > 0.8 * second) continue;
+    if (nearest.best > slam::tracking::kDescriptorLow || nearest.best > 0.8 * nearest.second)
+      continue;
+    const std::size_t best_j = nearest.index;
     slam::optim::PoseObservation o;
     o.world = prev.unproject_world(i);
     o.pixel = cur.pixel(best_j);

@@ -93,19 +93,11 @@ std::vector<FeatureMatch> match_by_bow(const features::OrbFeatures& a, const Fea
                   {.field = "features"});
     }
     for (std::uint32_t i : ia->features) {
-      int best = 257;
-      int second = 257;
-      std::uint32_t best_j = 0;
-      for (std::uint32_t j : ib->features) {
-        const int d = features::hamming_distance(a.descriptors[i], b.descriptors[j]);
-        if (d < best) {
-          second = best;
-          best = d;
-          best_j = j;
-        } else if (d < second) {
-          second = d;
-        }
-      }
+      features::NearestTwo nearest;
+      for (std::uint32_t j : ib->features)
+        nearest.offer(features::hamming_distance(a.descriptors[i], b.descriptors[j]), j);
+      const int best = nearest.best, second = nearest.second;
+      const auto best_j = static_cast<std::uint32_t>(nearest.index);
       if (best > options.max_distance) continue;
       if (static_cast<double>(best) >= options.ratio * static_cast<double>(second)) continue;
       FeatureMatch& current = best_for_b[best_j];
