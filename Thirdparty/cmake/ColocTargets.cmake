@@ -45,3 +45,20 @@ function(coloc_benchmark name)
   coloc_apply_settings(${name})
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} benchmark::benchmark benchmark::benchmark_main)
 endfunction()
+
+# coloc_cli_test(name script.py [args...]): a Python check that drives the `coloc` binary
+# (passed as --coloc PATH, then args). Exit 77 = skipped (data missing). Debian's python3 with
+# python3-numpy is /usr/bin/python3 (a pyenv python earlier on PATH may lack numpy).
+function(coloc_cli_test name script)
+  find_program(COLOC_PYTHON3 python3 PATHS /usr/bin NO_DEFAULT_PATH)
+  if(NOT COLOC_PYTHON3)
+    find_program(COLOC_PYTHON3 python3)
+  endif()
+  if(NOT COLOC_PYTHON3 OR NOT TARGET coloc)
+    return()
+  endif()
+  add_test(NAME ${name}
+           COMMAND ${COLOC_PYTHON3} ${CMAKE_CURRENT_SOURCE_DIR}/${script}
+                   --coloc $<TARGET_FILE:coloc> ${ARGN})
+  set_tests_properties(${name} PROPERTIES SKIP_RETURN_CODE 77)
+endfunction()

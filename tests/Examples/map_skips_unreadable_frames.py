@@ -9,18 +9,22 @@ Exit 0 on success, 1 on failure, 77 (skipped) without the data.
 import argparse
 import json
 import os
+import pathlib
 import shutil
 import subprocess
 import sys
 import tempfile
+
+sys.path.insert(0, next(str(p / "testing") for p in pathlib.Path(__file__).resolve().parents
+                        if p.name == "tests"))
+from coloc_testing import shared_data_dir  # noqa: E402
 
 
 def main():
     p = argparse.ArgumentParser()
     p.add_argument("--coloc", required=True)
     args = p.parse_args()
-    data = os.environ.get("COLOC_DATA") or os.path.join(
-        os.path.dirname(__file__), "..", "..", "..", "shared", "data")
+    data = shared_data_dir()
     src = os.path.join(data, "tum_fr1_xyz_37f")
     if not os.path.isdir(src):
         print("no data at", src)

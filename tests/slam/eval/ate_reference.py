@@ -11,8 +11,13 @@ Exit 0 when they agree to 1e-6 m, 1 otherwise, 77 (skipped) without numpy or the
 import argparse
 import json
 import os
+import pathlib
 import subprocess
 import sys
+
+sys.path.insert(0, next(str(p / "testing") for p in pathlib.Path(__file__).resolve().parents
+                        if p.name == "tests"))
+from coloc_testing import shared_data_dir  # noqa: E402
 
 try:
     import numpy as np
@@ -104,8 +109,7 @@ def main():
     p.add_argument("--coloc", required=True)
     p.add_argument("--work", required=True)
     args = p.parse_args()
-    data = os.environ.get("COLOC_DATA") or os.path.join(
-        os.path.dirname(__file__), "..", "..", "..", "..", "shared", "data")
+    data = shared_data_dir()
     gt_file = os.path.join(data, "tum_fr1_xyz_37f", "groundtruth.txt")
     if not os.path.exists(gt_file):
         print("TUM data not found: skipped")

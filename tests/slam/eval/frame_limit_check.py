@@ -10,16 +10,20 @@ Exit 0 on success, 1 on failure, 77 (skipped) without the data.
 import argparse
 import json
 import os
+import pathlib
 import subprocess
 import sys
+
+sys.path.insert(0, next(str(p / "testing") for p in pathlib.Path(__file__).resolve().parents
+                        if p.name == "tests"))
+from coloc_testing import REPO, shared_data_dir  # noqa: E402
 
 
 def main():
     p = argparse.ArgumentParser()
     p.add_argument("--coloc", required=True)
     args = p.parse_args()
-    data = os.environ.get("COLOC_DATA") or os.path.join(
-        os.path.dirname(__file__), "..", "..", "..", "..", "shared", "data")
+    data = shared_data_dir()
     seq = os.path.join(data, "tum_fr1_xyz_37f")
     if not os.path.isdir(seq):
         print("no data at", seq)
@@ -42,8 +46,7 @@ def main():
     rs = os.path.join(data, "realsense_d435_10f")
     if os.path.isdir(rs):
         bad = subprocess.run([args.coloc, "eval", "frame-limit", rs, "--config",
-                              os.path.join(os.path.dirname(__file__), "..", "..", "..",
-                                           "Examples", "RGB-D", "TUM1.yaml")],
+                              str(REPO / "Examples" / "RGB-D" / "TUM1.yaml")],
                              capture_output=True, text=True, check=False)
         print(bad.returncode, bad.stderr.strip())
         ok = ok and bad.returncode == 1 and "ground truth" in bad.stderr
