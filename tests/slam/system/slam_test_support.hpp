@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
+#include <opencv2/core/mat.hpp>
 #include <string>
 
 #include "slam/bow/vocabulary.hpp"
@@ -38,6 +39,27 @@ inline std::shared_ptr<const frame::FrameGeometry> test_geometry() {
 }
 
 // Every relation of the map checked from both sides; returns the first problem found.
+// A keyframe with n keypoints on a row (9 px apart from x = 20, y = 240), all at depth 2 m,
+// with distinct descriptors, its camera centre at `centre` looking along +z.
+inline map::Keyframe row_keyframe(map::Map& m, std::size_t n, const Eigen::Vector3d& centre) {
+  features::OrbFeatures f;
+  for (std::size_t i = 0; i < n; ++i) {
+    features::Keypoint kp;
+    kp.x = kp.ux = 20.0f + 9.0f * static_cast<float>(i);
+    kp.y = kp.uy = 240.0f;
+    f.keypoints.push_back(kp);
+    features::Descriptor d{};
+    d[0] = (i + 1) * 0x9e3779b97f4a7c15ULL;
+    f.descriptors.push_back(d);
+  }
+  map::Keyframe kf;
+  kf.id = m.next_keyframe_id();
+  kf.frame = frame::Frame(FrameId(kf.id.value()), 0.0, f,
+                          cv::Mat(480, 640, CV_32FC1, cv::Scalar(2.0f)), test_geometry());
+  kf.frame.cam_from_world = SE3(SO3(), -centre);
+  return kf;
+}
+
 inline std::string map_problem(const map::Map& m) {
   const auto id = [](auto k) { return std::to_string(k.value()); };
   for (const auto& [pid, p] : m.points()) {

@@ -19,31 +19,10 @@
 namespace coloc::slam::system {
 namespace {
 
-// A keyframe with n keypoints on a row, all at depth 2 m, with distinct descriptors.
-map::Keyframe make_keyframe(map::Map& m, std::size_t n, double x) {
-  static const auto geometry = test_support::test_geometry();
-  features::OrbFeatures f;
-  for (std::size_t i = 0; i < n; ++i) {
-    features::Keypoint kp;
-    kp.x = kp.ux = 20.0f + 9.0f * static_cast<float>(i);
-    kp.y = kp.uy = 240.0f;
-    f.keypoints.push_back(kp);
-    features::Descriptor d{};
-    d[0] = (i + 1) * 0x9e3779b97f4a7c15ULL;
-    f.descriptors.push_back(d);
-  }
-  map::Keyframe kf;
-  kf.id = m.next_keyframe_id();
-  kf.frame = frame::Frame(FrameId(kf.id.value()), 0.0, f,
-                          cv::Mat(480, 640, CV_32FC1, cv::Scalar(2.0f)), geometry);
-  kf.frame.cam_from_world = SE3(SO3(), Eigen::Vector3d(-x, 0.0, 0.0));
-  return kf;
-}
-
 // Adds a keyframe observing `points` at keypoints 0.. and `fresh` new points after them.
 KeyframeId add_observer(map::Map& m, double x, const std::vector<MapPointId>& points,
                         std::size_t fresh, std::vector<MapPointId>* created = nullptr) {
-  map::Keyframe kf = make_keyframe(m, points.size() + fresh, x);
+  map::Keyframe kf = test_support::row_keyframe(m, points.size() + fresh, {x, 0.0, 0.0});
   std::copy(points.begin(), points.end(), kf.frame.points.begin());
   const KeyframeId id = m.add_keyframe(std::move(kf)).id;
   for (std::size_t i = points.size(); i < points.size() + fresh; ++i) {

@@ -6,40 +6,22 @@
 namespace coloc::slam::map {
 namespace {
 
-// A keyframe with n keypoints on a row, all at depth 2 m, with distinct descriptors.
-Keyframe make_keyframe(Map& map, std::size_t n, const Eigen::Vector3d& centre) {
-  features::OrbFeatures f;
-  for (std::size_t i = 0; i < n; ++i) {
-    features::Keypoint kp;
-    kp.x = kp.ux = 20.0f + 10.0f * static_cast<float>(i);
-    kp.y = kp.uy = 240.0f;
-    f.keypoints.push_back(kp);
-    features::Descriptor d{};
-    d[0] = i * 0x9e3779b97f4a7c15ULL;
-    f.descriptors.push_back(d);
-  }
-  cv::Mat depth(480, 640, CV_32FC1, cv::Scalar(2.0f));
-  Keyframe kf;
-  kf.id = map.next_keyframe_id();
-  kf.frame = frame::Frame(FrameId(kf.id.value()), 0.0, f, depth, test_support::test_geometry());
-  kf.frame.cam_from_world = SE3(SO3(), -centre);
-  return kf;
-}
+using test_support::row_keyframe;
 
 TEST(Map, ObservationsCovisibilityAndSpanningTreeStayConsistent) {
   Map map;
-  const KeyframeId a = map.add_keyframe(make_keyframe(map, 40, {0, 0, 0})).id;
+  const KeyframeId a = map.add_keyframe(row_keyframe(map, 40, {0, 0, 0})).id;
   std::vector<MapPointId> pts;
   for (std::uint32_t i = 0; i < 40; ++i) {
     pts.push_back(map.add_point(map.keyframe(a)->frame.unproject_world(i), a, i).id);
   }
   EXPECT_EQ(map.point_count(), 40u);
   // Keyframe b sees the first 30 points, c the last 20.
-  Keyframe kb = make_keyframe(map, 40, {0.1, 0, 0});
+  Keyframe kb = row_keyframe(map, 40, {0.1, 0, 0});
   for (std::size_t i = 0; i < 30; ++i)
     kb.frame.points[i] = pts[i];
   const KeyframeId b = map.add_keyframe(std::move(kb)).id;
-  Keyframe kc = make_keyframe(map, 40, {0.2, 0, 0});
+  Keyframe kc = row_keyframe(map, 40, {0.2, 0, 0});
   for (std::size_t i = 20; i < 40; ++i)
     kc.frame.points[i] = pts[i];
   const KeyframeId c = map.add_keyframe(std::move(kc)).id;
@@ -84,7 +66,7 @@ TEST(Map, ObservationsCovisibilityAndSpanningTreeStayConsistent) {
 
 TEST(Map, PointStatisticsFollowObservations) {
   Map map;
-  const KeyframeId a = map.add_keyframe(make_keyframe(map, 5, {0, 0, 0})).id;
+  const KeyframeId a = map.add_keyframe(row_keyframe(map, 5, {0, 0, 0})).id;
   const MapPoint& p = map.add_point(map.keyframe(a)->frame.unproject_world(2), a, 2);
   // Straight ahead at 2 m, level 0: max distance 2 m, min = max / scale of the last level.
   EXPECT_NEAR(p.max_distance, (p.position).norm(), 1e-9);
