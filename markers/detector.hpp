@@ -1,10 +1,7 @@
 #pragma once
 // Square fiducial detection (ArUco and AprilTag dictionaries) over OpenCV contrib's aruco module.
 //
-// Pixel convention: the origin is the centre of the top-left pixel (as slam/core/camera.hpp).
-// Corner order (OpenCV's): the marker's own top-left, top-right, bottom-right, bottom-left corner,
-// i.e. clockwise in the image when the marker is seen from its front. marker_pose.hpp maps this
-// order to the marker frame.
+// Pixel and corner conventions: markers/observation.hpp.
 //
 // Keyframe use (issue 9, item 6): construct one MarkerDetector per SLAM system and call detect()
 // on each keyframe's grey image. detect() is const and keeps no state between calls, so one
@@ -17,6 +14,8 @@
 #include <opencv2/core/mat.hpp>
 #include <string>
 #include <vector>
+
+#include "markers/observation.hpp"
 
 namespace coloc::markers {
 
@@ -53,17 +52,6 @@ struct DetectorOptions {
 
   // Throws coloc::Error naming the first bad field.
   void check() const;
-};
-
-// One detected marker in one image.
-struct MarkerObservation {
-  int id = -1;
-  std::array<Eigen::Vector2d, 4> corners{};  // pixels, order as described above
-  int image_width = 0;
-  int image_height = 0;
-
-  Eigen::Vector2d centre() const;
-  double perimeter() const;  // pixels
 };
 
 class MarkerDetector {

@@ -60,7 +60,8 @@ int run(int argc, char** argv) {
   const double depth_factor = settings.depth ? settings.depth->depth_map_factor : 5000.0;
   coloc::slam::system::System slam(settings, vocabulary);
   for (const Entry& e : entries) {
-    const cv::Mat color = coloc::dataset::read_image(sequence / e.rgb);
+    const cv::Mat color = coloc::dataset::to_camera_order(
+        coloc::dataset::read_image(sequence / e.rgb), settings.rgb_order);
     const cv::Mat depth = coloc::dataset::read_depth(sequence / e.depth, depth_factor);
     slam.track(color, depth, e.timestamp);
   }

@@ -23,8 +23,8 @@
 #include "slam/core/timing.hpp"
 #include "slam/features/orb_extractor.hpp"
 #include "slam/frame/frame.hpp"
+#include "slam/matching/search.hpp"
 #include "slam/optim/pose_optimizer.hpp"
-#include "slam/tracking/search.hpp"
 
 namespace coloc::cli {
 namespace {
@@ -67,7 +67,7 @@ std::vector<slam::optim::PoseObservation> observations(const slam::frame::Frame&
                                                      cur.features.descriptors[j]),
                     j);
     }
-    if (nearest.best > slam::tracking::kDescriptorLow || nearest.best > 0.8 * nearest.second)
+    if (nearest.best > slam::matching::kDescriptorLow || nearest.best > 0.8 * nearest.second)
       continue;
     const std::size_t best_j = nearest.index;
     slam::optim::PoseObservation o;

@@ -1,6 +1,7 @@
 // coloc map: RGB-D SLAM over a recorded sequence (TUM, 7-Scenes, twin), a global BA of the
-// finished map, and the trajectory in TUM format. coloc bench track: tracking time per frame by stage (median, p99), local BA time
-// and ATE, over one or more runs (threads make runs differ; several runs show the spread).
+// finished map, and the trajectory in TUM format. coloc bench track: tracking time per frame by
+// stage (median, p99), local BA time and ATE, over one or more runs (threads make runs differ;
+// several runs show the spread).
 
 #include <spdlog/spdlog.h>
 
@@ -52,7 +53,7 @@ std::optional<eval::AteResult> ate_of(const dataset::Sequence& sequence, const T
 RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& settings,
                    const slam::bow::Vocabulary& vocabulary, bool sequential, bool global_ba) {
   slam::system::SystemOptions options;
-  options.sequential_mapping = sequential;
+  options.tracking.wait_for_sink = sequential;
   slam::system::System slam(settings, vocabulary, options);
   Progress progress("slam", sequence.size());
   RunResult r;
@@ -67,7 +68,8 @@ RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& 
       ++r.skipped_frames;
       continue;
     }
-    slam.track(frame.color, frame.depth, frame.timestamp);
+    slam.track(dataset::to_camera_order(frame.color, settings.rgb_order), frame.depth,
+               frame.timestamp);
   }
   progress.finish();
   if (r.skipped_frames == sequence.size())

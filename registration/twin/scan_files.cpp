@@ -1,20 +1,13 @@
-#include <spdlog/spdlog.h>
-
 #include <cstdio>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "e57io/writer.hpp"
 #include "registration/twin/scan.hpp"
 #include "slam/core/error.hpp"
 
-// The E57 part needs coloc_e57io's writer; CMake defines COLOC_TWIN_E57 when it is there.
-#if COLOC_TWIN_E57
-#include "e57io/writer.hpp"
-#endif
-
 namespace coloc::registration::twin {
-#if COLOC_TWIN_E57
 namespace {
 
 e57::Pose to_e57(const SE3& pose) {
@@ -34,12 +27,9 @@ std::string guid(std::uint64_t seed, std::uint64_t kind, std::uint64_t index) {
 }
 
 }  // namespace
-#endif
 
 struct ScanFileWriter::Impl {
-#if COLOC_TWIN_E57
   std::unique_ptr<e57::Writer> e57;
-#endif
   std::filesystem::path ply_path;
   std::filesystem::path ply_tmp;
   std::ofstream ply_body;
@@ -53,15 +43,11 @@ ScanFileWriter::ScanFileWriter(const std::filesystem::path& e57_path,
                                const std::filesystem::path& ply_path, std::uint64_t seed,
                                int jpeg_quality)
     : impl_(std::make_unique<Impl>()) {
-#if COLOC_TWIN_E57
   e57::WriterOptions wo;
   wo.guid = guid(seed, 0xf11e, 0);
   wo.creation_time = e57::DateTime{1.4e9, false};
   wo.library_version = "coloc twin generator";
   impl_->e57 = std::make_unique<e57::Writer>(e57_path, wo);
-#else
-  spdlog::warn("twin: built without the e57io writer; {} is not written", e57_path.string());
-#endif
   impl_->ply_path = ply_path;
   impl_->ply_tmp = ply_path;
   impl_->ply_tmp += ".body";
@@ -80,9 +66,7 @@ ScanFileWriter::~ScanFileWriter() {
 }
 
 void ScanFileWriter::add(const ScanStation& st) {
-#if COLOC_TWIN_E57
   add_e57(st);
-#endif
   // PLY body: world-frame float xyz + RGB.
   for (std::size_t i = 0; i < st.points.size(); ++i) {
     const Eigen::Vector3f p = (st.world_from_station * st.points[i]).cast<float>();
@@ -92,7 +76,6 @@ void ScanFileWriter::add(const ScanStation& st) {
   impl_->points += st.points.size();
 }
 
-#if COLOC_TWIN_E57
 void ScanFileWriter::add_e57(const ScanStation& st) {
   using e57::FieldSpec;
   using e57::PointField;
@@ -150,18 +133,17 @@ void ScanFileWriter::add_e57(const ScanStation& st) {
     impl_->e57->add_image(im, jpeg);
   }
 }
-#else
-void ScanFileWriter::add_e57(const ScanStation&) {}
-#endif
 
 std::size_t ScanFileWriter::close() {
-#if COLOC_TWIN_E57
   impl_->e57->close();
-#endif
   impl_->ply_body.close();
+  // Header + body into a temporary file renamed when complete: a failure never leaves a
+  // half-written PLY under the final name.
+  std::filesystem::path ply_partial = impl_->ply_path;
+  ply_partial += ".partial";
   {
-    std::ofstream out(impl_->ply_path, std::ios::binary);
-    if (!out) throw Error("cannot write", {.file = impl_->ply_path.string()});
+    std::ofstream out(ply_partial, std::ios::binary);
+    if (!out) throw Error("cannot write", {.file = ply_partial.string()});
     out << "ply\nformat binary_little_endian 1.0\ncomment coloc digital twin scan, world frame, "
            "metres\nelement vertex "
         << impl_->points
@@ -169,8 +151,10 @@ std::size_t ScanFileWriter::close() {
            "property uchar green\nproperty uchar blue\nend_header\n";
     std::ifstream body(impl_->ply_tmp, std::ios::binary);
     out << body.rdbuf();
-    if (!out) throw Error("cannot write", {.file = impl_->ply_path.string()});
+    out.flush();
+    if (!out) throw Error("cannot write", {.file = ply_partial.string()});
   }
+  std::filesystem::rename(ply_partial, impl_->ply_path);
   std::filesystem::remove(impl_->ply_tmp);
   impl_->closed = true;
   return impl_->points;

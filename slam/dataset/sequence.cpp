@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "slam/core/error.hpp"
 
@@ -42,6 +43,13 @@ cv::Mat read_image(const std::filesystem::path& path, bool grey) {
   cv::Mat img = cv::imread(path.string(), grey ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR);
   if (img.empty()) throw Error("cannot read image", {.file = path.string()});
   return img;
+}
+
+cv::Mat to_camera_order(const cv::Mat& bgr, bool rgb_order) {
+  if (!rgb_order || bgr.channels() != 3) return bgr;
+  cv::Mat rgb;
+  cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
+  return rgb;
 }
 
 cv::Mat read_depth(const std::filesystem::path& path, double units_per_metre,

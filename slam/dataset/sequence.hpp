@@ -76,6 +76,9 @@ std::unique_ptr<Sequence> open_euroc(const std::filesystem::path& dir,
 
 // Reads a colour/grey image (8-bit) or throws coloc::Error naming the file.
 cv::Mat read_image(const std::filesystem::path& path, bool grey = false);
+// Images decoded from files are BGR; a camera whose settings say Camera.RGB: 1 hands RGB images
+// to tracking. Returns `bgr` in the camera's order (an RGB copy when `rgb_order`; grey as it is).
+cv::Mat to_camera_order(const cv::Mat& bgr, bool rgb_order);
 // Reads a 16-bit depth PNG into metres (CV_32FC1); raw values of 0 and of `invalid_raw` (if
 // non-zero) become 0. Throws coloc::Error naming the file.
 cv::Mat read_depth(const std::filesystem::path& path, double units_per_metre,

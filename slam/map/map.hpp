@@ -16,7 +16,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "markers/detector.hpp"
+#include "markers/observation.hpp"
 #include "slam/core/ids.hpp"
 #include "slam/core/se3.hpp"
 #include "slam/frame/frame.hpp"

@@ -7,10 +7,11 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "markers/detector.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
-#include "slam/mapping/fuse.hpp"
 #include "slam/mapping/triangulate.hpp"
+#include "slam/matching/fuse.hpp"
 
 namespace coloc::slam::mapping {
 
@@ -24,12 +25,13 @@ void LocalMappingOptions::check() const {
 
 LocalMapper::LocalMapper(map::SharedMap& map, const bow::Vocabulary& vocabulary,
                          const markers::MarkerDetector* detector, double marker_size,
-                         LocalMappingOptions options)
+                         LocalMappingOptions options, map::KeyframeSink* output)
     : shared_(map),
       vocabulary_(vocabulary),
       detector_(detector),
       marker_size_(marker_size),
       options_(std::move(options)),
+      output_(output),
       queue_(options_.queue_capacity) {
   options_.check();
 }
@@ -42,7 +44,7 @@ void LocalMapper::start() {
   if (!thread_.joinable() && !stopping_) thread_ = std::thread([this] { run(); });
 }
 
-bool LocalMapper::push(KeyframeMessage message) {
+bool LocalMapper::push(map::KeyframeMessage message) {
   {
     std::lock_guard lock(state_mutex_);
     ++pending_;
@@ -50,7 +52,7 @@ bool LocalMapper::push(KeyframeMessage message) {
   if (queue_.push(std::move(message))) return true;
   std::lock_guard lock(state_mutex_);
   --pending_;
-  idle_cv_.notify_all();
+  state_cv_.notify_all();
   return false;
 }
 
@@ -61,16 +63,40 @@ bool LocalMapper::idle() const {
 
 void LocalMapper::wait_idle() {
   std::unique_lock lock(state_mutex_);
-  idle_cv_.wait(lock, [&] { return pending_ == 0 || !thread_.joinable(); });
+  state_cv_.wait(lock, [&] { return pending_ == 0 || !thread_.joinable() || stopping_; });
+}
+
+void LocalMapper::pause() {
+  std::unique_lock lock(state_mutex_);
+  pause_requested_ = true;
+  abort_ba_ = true;
+  // The thread takes a keyframe in hand only under state_mutex_ and after checking the request,
+  // so once processing_ is false here it stays false until resume().
+  state_cv_.wait(lock, [&] { return !processing_; });
+}
+
+void LocalMapper::resume() {
+  std::lock_guard lock(state_mutex_);
+  pause_requested_ = false;
+  state_cv_.notify_all();
+}
+
+bool LocalMapper::paused() const {
+  std::lock_guard lock(state_mutex_);
+  return pause_requested_ && !processing_;
 }
 
 void LocalMapper::stop() {
-  stopping_ = true;
-  abort_ba_ = true;
+  {
+    std::lock_guard lock(state_mutex_);
+    stopping_ = true;
+    abort_ba_ = true;
+    state_cv_.notify_all();
+  }
   queue_.close();
   if (thread_.joinable()) thread_.join();
   std::lock_guard lock(state_mutex_);
-  idle_cv_.notify_all();
+  state_cv_.notify_all();
 }
 
 MappingStats LocalMapper::stats() const {
@@ -78,21 +104,31 @@ MappingStats LocalMapper::stats() const {
   return stats_;
 }
 
+void LocalMapper::take_in_hand() {
+  std::unique_lock lock(state_mutex_);
+  state_cv_.wait(lock, [&] { return !pause_requested_ || stopping_; });
+  processing_ = true;
+}
+
 void LocalMapper::run() {
   while (auto message = queue_.pop()) {
+    take_in_hand();
     try {
       process(*message);
     } catch (const std::exception& e) {
       // A failed keyframe must not take the thread (and the program) down.
       spdlog::error("local mapping: keyframe {}: {}", message->id.value(), e.what());
     }
+    // The stage behind mapping (a loop closer) sees keyframes in the order they were mapped.
+    if (output_ && !stopping_) output_->push({message->id, {}});
     std::lock_guard lock(state_mutex_);
+    processing_ = false;
     --pending_;
-    idle_cv_.notify_all();
+    state_cv_.notify_all();
   }
 }
 
-void LocalMapper::process(const KeyframeMessage& message) {
+void LocalMapper::process(const map::KeyframeMessage& message) {
   insert_keyframe(message);
   cull_recent_points(message.id);
   if (options_.triangulation) {
@@ -107,7 +143,7 @@ void LocalMapper::process(const KeyframeMessage& message) {
   }
   fuse_neighbours(message.id);
   // ORB-SLAM skips BA while keyframes wait: tracking needs them in the map first.
-  if (options_.local_ba && queue_.size() == 0 && !stopping_) {
+  if (options_.local_ba && queue_.size() == 0 && !stopping_ && !pause_requested_) {
     abort_ba_ = false;
     local_bundle_adjustment(message.id);
   }
@@ -116,7 +152,7 @@ void LocalMapper::process(const KeyframeMessage& message) {
   ++stats_.keyframes;
 }
 
-void LocalMapper::insert_keyframe(const KeyframeMessage& message) {
+void LocalMapper::insert_keyframe(const map::KeyframeMessage& message) {
   std::vector<features::Descriptor> descriptors;
   bool need_bow = false;
   {
@@ -197,7 +233,7 @@ void LocalMapper::fuse_neighbours(KeyframeId current) {
     std::vector<MapPointId> pts;
     for (MapPointId p : kf->frame.points)
       if (p.valid()) pts.push_back(p);
-    fused += fuse_points(m, t, pts, options_.fusion_radius);
+    fused += matching::fuse_points(m, t, pts, options_.fusion_radius);
   }
   std::vector<MapPointId> candidates;
   std::unordered_set<MapPointId> unique;
@@ -208,7 +244,7 @@ void LocalMapper::fuse_neighbours(KeyframeId current) {
       if (p.valid() && unique.insert(p).second) candidates.push_back(p);
     }
   }
-  fused += fuse_points(m, current, candidates, options_.fusion_radius);
+  fused += matching::fuse_points(m, current, candidates, options_.fusion_radius);
   const map::Keyframe* kf = m.keyframe(current);
   if (!kf) return;
   for (MapPointId p : kf->frame.points)

@@ -1,27 +1,31 @@
 #pragma once
 // Local mapping (ORB-SLAM's LocalMapping) in its own thread, fed by a bounded blocking queue of
-// keyframe ids that tracking has already inserted into the map. Per keyframe: BoW vector and
-// database entry, marker detection, point descriptors/normals and covisibility update,
-// recent-point culling, duplicate fusion with the neighbours, local bundle adjustment (Ceres,
-// keyframes outside the window fixed) and redundant-keyframe culling.
+// keyframe ids that tracking has already inserted into the map (the mapper is tracking's
+// map::KeyframeSink). Per keyframe: BoW vector and database entry, marker detection, point
+// descriptors/normals and covisibility update, recent-point culling, new points by
+// triangulation, duplicate fusion with the neighbours, local bundle adjustment (Ceres, keyframes
+// outside the window fixed) and redundant-keyframe culling. Each processed keyframe is then handed
+// to the mapper's own output sink (a loop closer), when there is one.
 //
-// Threads: push()/idle()/interrupt_ba()/stop() are called from the tracking thread; everything
-// else runs in the mapper's thread. The map is touched only under SharedMap::mutex; BA runs on
-// a copy without the lock, and is abandoned between iterations when interrupt_ba() or stop()
-// raises the abort flag (a new keyframe is more useful than a finished BA).
+// Threads: the KeyframeSink members, pause()/resume() and stop() are called from other threads;
+// everything else runs in the mapper's thread. The map is touched only under SharedMap::mutex; BA
+// runs on a copy without the lock, and is abandoned between iterations when interrupt(), pause()
+// or stop() raises the abort flag (a new keyframe or a loop correction matters more).
 #include <atomic>
 #include <condition_variable>
-#include <memory>
 #include <mutex>
-#include <opencv2/core/mat.hpp>
 #include <thread>
 #include <vector>
 
-#include "markers/detector.hpp"
 #include "slam/bow/vocabulary.hpp"
+#include "slam/core/bounded_queue.hpp"
+#include "slam/map/keyframe_sink.hpp"
 #include "slam/map/shared_map.hpp"
-#include "slam/mapping/bounded_queue.hpp"
 #include "slam/optim/bundle_adjustment.hpp"
+
+namespace coloc::markers {
+class MarkerDetector;
+}
 
 namespace coloc::slam::mapping {
 
@@ -38,11 +42,6 @@ struct LocalMappingOptions {
   void check() const;
 };
 
-struct KeyframeMessage {
-  KeyframeId id;
-  cv::Mat grey;  // the keyframe's image, for marker detection (may be empty)
-};
-
 struct MappingStats {
   int keyframes = 0;
   int ba_runs = 0;
@@ -55,35 +54,45 @@ struct MappingStats {
   std::vector<double> ba_ms;  // wall time of each local BA
 };
 
-class LocalMapper {
+class LocalMapper final : public map::KeyframeSink {
  public:
-  // `map`, `vocabulary` and `detector` (may be null: no markers) must outlive the mapper;
-  // `marker_size` (metres) is stored with each keyframe's marker observations.
+  // `map`, `vocabulary`, `detector` (may be null: no markers) and `output` (may be null: no
+  // stage behind mapping) must outlive the mapper; `marker_size` (metres) is stored with each
+  // keyframe's marker observations.
   LocalMapper(map::SharedMap& map, const bow::Vocabulary& vocabulary,
               const markers::MarkerDetector* detector, double marker_size,
-              LocalMappingOptions options);
-  ~LocalMapper();  // stop()
+              LocalMappingOptions options, map::KeyframeSink* output = nullptr);
+  ~LocalMapper() override;  // stop()
   LocalMapper(const LocalMapper&) = delete;
   LocalMapper& operator=(const LocalMapper&) = delete;
 
   void start();
-  // Blocks while the queue is full; false after stop().
-  bool push(KeyframeMessage message);
-  // No keyframe queued or being processed.
-  bool idle() const;
-  std::size_t queued() const { return queue_.size(); }
-  // Blocks until idle (the sequential mode of tests and benchmarks).
-  void wait_idle();
+  // map::KeyframeSink. push() blocks while the queue is full and is false after stop().
+  bool push(map::KeyframeMessage message) override;
+  bool idle() const override;
+  std::size_t queued() const override { return queue_.size(); }
+  bool accepting() const override { return !pause_requested_; }
   // Asks a running bundle adjustment to stop at its next iteration.
-  void interrupt_ba() { abort_ba_ = true; }
+  void interrupt() override { abort_ba_ = true; }
+  void wait_idle() override;
+
+  // For a loop closer's correction: the mapper finishes (or abandons the BA of) the keyframe in
+  // hand and then processes none until resume(); keyframes pushed meanwhile wait in the queue.
+  // pause() returns once the mapper is paused, or stopped.
+  void pause();
+  void resume();
+  bool paused() const;
   // Closes the queue, aborts BA, processes what is queued without BA, joins. Idempotent.
   void stop();
   MappingStats stats() const;
 
  private:
   void run();
-  void process(const KeyframeMessage& message);
-  void insert_keyframe(const KeyframeMessage& message);
+  // Mapper thread, before processing a popped keyframe: waits while a pause is requested (not
+  // when stopping), then marks the keyframe in hand.
+  void take_in_hand();
+  void process(const map::KeyframeMessage& message);
+  void insert_keyframe(const map::KeyframeMessage& message);
   void cull_recent_points(KeyframeId current);
   void fuse_neighbours(KeyframeId current);
   void local_bundle_adjustment(KeyframeId current);
@@ -94,13 +103,16 @@ class LocalMapper {
   const markers::MarkerDetector* detector_;
   double marker_size_;
   LocalMappingOptions options_;
-  BoundedQueue<KeyframeMessage> queue_;
+  map::KeyframeSink* output_;
+  BoundedQueue<map::KeyframeMessage> queue_;
   std::thread thread_;
   std::atomic<bool> abort_ba_{false};
   std::atomic<bool> stopping_{false};
-  mutable std::mutex state_mutex_;  // guards pending_ and stats_
-  std::condition_variable idle_cv_;
-  int pending_ = 0;  // pushed but not yet processed
+  std::atomic<bool> pause_requested_{false};
+  mutable std::mutex state_mutex_;    // guards pending_, processing_, stats_; with state_cv_
+  std::condition_variable state_cv_;  // pending_/processing_ changed, resume or stop
+  int pending_ = 0;                   // pushed but not yet processed
+  bool processing_ = false;           // the mapper thread has a keyframe in hand
   MappingStats stats_;
   std::vector<MapPointId> recent_points_;  // mapper thread only
 };

@@ -4,8 +4,8 @@
 #include <opencv2/core/eigen.hpp>
 
 #include "slam/core/error.hpp"
-#include "slam/tracking/pose_support.hpp"
-#include "slam/tracking/search.hpp"
+#include "slam/matching/pose_support.hpp"
+#include "slam/matching/search.hpp"
 
 namespace coloc::slam::reloc {
 
@@ -77,18 +77,18 @@ int solve_pnp(frame::Frame& frame, const map::Map& map, const RelocalizationOpti
 int search_by_projection_passes(frame::Frame& frame, const map::Keyframe& keyframe,
                                 const map::Map& map, const RelocalizationOptions& options,
                                 RelocalizationResult& result) {
-  tracking::drop_outliers(frame);
-  result.wide_pass_matches = tracking::search_keyframe_points(
+  matching::drop_outliers(frame);
+  result.wide_pass_matches = matching::search_keyframe_points(
       frame, keyframe, map, options.wide_radius_px, options.wide_max_distance);
-  int inliers = tracking::optimize_frame_pose(frame, map);
+  int inliers = matching::optimize_frame_pose(frame, map);
   result.wide_pass_inliers = inliers;
   if (inliers > options.narrow_min_inliers && inliers < options.min_inliers) {
     // The wide pass's outliers stay matched (ORB-SLAM keeps them in its "found" set), so the
     // narrow pass neither searches their points again nor reuses their keypoints; the final
     // optimization reclassifies them.
-    result.narrow_pass_matches = tracking::search_keyframe_points(
+    result.narrow_pass_matches = matching::search_keyframe_points(
         frame, keyframe, map, options.narrow_radius_px, options.narrow_max_distance);
-    inliers = tracking::optimize_frame_pose(frame, map);
+    inliers = matching::optimize_frame_pose(frame, map);
     result.narrow_pass_inliers = inliers;
   }
   result.inliers = inliers;
@@ -103,11 +103,11 @@ bool try_candidate(frame::Frame& frame, const map::Keyframe& kf, const map::Map&
                    const RelocalizationOptions& options, RelocalizationResult& result) {
   frame.points.assign(frame.size(), MapPointId::invalid());
   frame.outlier.assign(frame.size(), 0);
-  result.bow_matches = tracking::search_by_bow(kf, frame, map);
+  result.bow_matches = matching::search_by_bow(kf, frame, map);
   if (result.bow_matches < options.min_bow_matches) return false;
   result.pnp_inliers = solve_pnp(frame, map, options);
   if (result.pnp_inliers < options.min_ransac_inliers) return false;
-  int inliers = tracking::optimize_frame_pose(frame, map);
+  int inliers = matching::optimize_frame_pose(frame, map);
   result.optimized_inliers = inliers;
   result.inliers = inliers;
   if (inliers < options.min_optimized_inliers) return false;
@@ -132,7 +132,7 @@ RelocalizationResult relocalize(frame::Frame& frame, const map::Map& map,
     RelocalizationResult attempt;
     attempt.candidates = static_cast<int>(candidates.size());
     if (!try_candidate(frame, *kf, map, options, attempt)) continue;
-    tracking::drop_outliers(frame);
+    matching::drop_outliers(frame);
     frame.has_pose = true;
     attempt.success = true;
     attempt.keyframe = kf->id;

@@ -59,31 +59,6 @@ class KeyReader {
     return static_cast<std::string>(node);
   }
 
-  // A scalar of any type, as text (for extension sections that their users type-check);
-  // matrices (IMU.T_b_c1) as their row-major numbers separated by spaces.
-  std::string scalar_text(const std::string& key) {
-    const cv::FileNode node = storage_[key];
-    used_.insert(key);
-    if (node.isMap() && !node["data"].empty()) {
-      std::string out;
-      for (const auto& v : node["data"]) {
-        char buf[32];
-        std::snprintf(buf, sizeof(buf), "%.17g", static_cast<double>(v));
-        if (!out.empty()) out += ' ';
-        out += buf;
-      }
-      return out;
-    }
-    if (node.isString()) return static_cast<std::string>(node);
-    if (node.isInt()) return std::to_string(static_cast<int>(node));
-    if (node.isReal()) {
-      char buf[32];
-      std::snprintf(buf, sizeof(buf), "%.17g", static_cast<double>(node));
-      return buf;
-    }
-    fail(key, "expected a scalar value");
-  }
-
   [[noreturn]] void fail(const std::string& key, const std::string& message) const {
     throw Error(message, {.file = path_.string(), .field = key});
   }
@@ -191,7 +166,7 @@ Settings load_settings(const std::filesystem::path& path) {
   }
   s.camera = read_camera(keys, s.file_version);
   s.fps = keys.number("Camera.fps").value_or(s.fps);
-  s.rgb_order = keys.integer("Camera.RGB").value_or(1) != 0;
+  s.rgb_order = keys.integer("Camera.RGB").value_or(0) != 0;  // ORB-SLAM: absent = BGR
   s.readout_time = keys.number("Camera.readoutTime").value_or(0.0);
   if (!(s.readout_time >= 0.0 && s.readout_time < 1.0))
     keys.fail("Camera.readoutTime", "must be in [0, 1) seconds");
@@ -203,8 +178,8 @@ Settings load_settings(const std::filesystem::path& path) {
 
   for (const auto& key : keys.keys()) {
     if (keys.used(key) || starts_with(key, "Viewer.")) continue;
-    if (starts_with(key, "Fusion.") || starts_with(key, "OSC.") || starts_with(key, "IMU.")) {
-      s.extensions[key] = keys.scalar_text(key);
+    if (starts_with(key, "Coloc.")) {
+      s.coloc_options[key.substr(6)] = keys.required_number(key);
       continue;
     }
     s.warnings.push_back(key);

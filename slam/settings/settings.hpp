@@ -6,10 +6,11 @@
 //    Stereo.ThDepth, RGBD.DepthMapFactor;
 //  - both: Camera.type ("PinHole" | "KannalaBrandt8"), Camera.width/height, Camera.fps,
 //    Camera.RGB, ORBextractor.*; Viewer.* is ignored.
-// coloc's own additions live in the same file under their own prefixes: Markers.*, Fusion.*,
-// OSC.*; ORB-SLAM3's IMU.* block is kept for the IMU users. Any other key is reported as a warning
-// naming it; a missing required key or a value of the wrong type is a coloc::Error naming the key
-// and the file.
+// coloc's own additions live in the same file under their own prefixes: Camera.readoutTime,
+// Markers.*, and Coloc.<option> for the SLAM options users tune (slam/system/tuning.hpp names
+// them; an unknown one is an error there). Any other key (ORB-SLAM3's IMU.*, System.*, ...) is
+// reported as a warning naming it: nothing reads it. A missing required key or a value of the
+// wrong type is a coloc::Error naming the key and the file.
 
 #include <filesystem>
 #include <map>
@@ -52,13 +53,14 @@ struct Settings {
   // Camera.readoutTime (coloc's key): seconds from the first to the last row of a rolling-shutter
   // colour camera; 0 = global shutter. Tracking compensates it with the motion model's rotation.
   double readout_time = 0.0;
-  bool rgb_order = true;  // Camera.RGB: 1 = images are RGB, 0 = BGR
+  // Camera.RGB: the channel order of the colour images the camera hands to tracking (1 RGB,
+  // 0 BGR). Images decoded from files by OpenCV are BGR whatever this says.
+  bool rgb_order = false;
   std::optional<DepthSettings> depth;
   OrbSettings orb;
   MarkerSettings markers;
-  // Fusion.*, OSC.* and IMU.* values as written (key -> scalar text, matrices as their numbers);
-  // the verbs that use them check their keys and types.
-  std::map<std::string, std::string> extensions;
+  // Coloc.<option>: value, by option name (without the prefix); numbers, booleans as 0 / 1.
+  std::map<std::string, double> coloc_options;
   // Unknown keys, in file order (also logged as warnings).
   std::vector<std::string> warnings;
 };

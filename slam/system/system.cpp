@@ -7,35 +7,11 @@
 #include <string>
 #include <variant>
 
+#include "markers/detector.hpp"
 #include "slam/core/error.hpp"
+#include "slam/system/tuning.hpp"
 
 namespace coloc::slam::system {
-
-void SystemOptions::check() const {
-  tracking.check();
-  mapping.check();
-}
-
-std::string SystemOptions::describe() const {
-  std::ostringstream s;
-  s << "tracking.min_init_points " << tracking.min_init_points << "\n"
-    << "tracking.motion_search_radius " << tracking.motion_search_radius << "\n"
-    << "tracking.local_search_th " << tracking.local_search_th << "\n"
-    << "tracking.min_local_inliers " << tracking.min_local_inliers << "\n"
-    << "tracking.max_frames_between_keyframes " << tracking.max_frames_between_keyframes << "\n"
-    << "tracking.close_tracked_limit " << tracking.close_tracked_limit << "\n"
-    << "tracking.close_untracked_limit " << tracking.close_untracked_limit << "\n"
-    << "tracking.relocalization.min_inliers " << tracking.relocalization.min_inliers << "\n"
-    << "mapping.queue_capacity " << mapping.queue_capacity << "\n"
-    << "mapping.triangulation " << mapping.triangulation << "\n"
-    << "mapping.local_ba " << mapping.local_ba << " (iterations " << mapping.ba.iterations_robust
-    << " + " << mapping.ba.iterations_refine << ")\n"
-    << "mapping.keyframe_culling " << mapping.keyframe_culling << " (redundancy "
-    << mapping.redundancy << ")\n"
-    << "sequential_mapping " << sequential_mapping << "\n"
-    << "detect_markers " << detect_markers;
-  return s.str();
-}
 
 std::string SystemSummary::describe() const {
   std::ostringstream s;
@@ -54,13 +30,14 @@ std::string SystemSummary::describe() const {
 
 System::System(const settings::Settings& settings, const bow::Vocabulary& vocabulary,
                SystemOptions options)
-    : options_(options),
+    : options_(std::move(options)),
       settings_(settings),
       vocabulary_(vocabulary),
       extractor_{settings.orb.n_features, settings.orb.scale_factor, settings.orb.n_levels,
                  settings.orb.ini_th_fast, settings.orb.min_th_fast},
       shared_(std::make_unique<map::SharedMap>()) {
-  options_.check();
+  options_.tracking.rgb_input = settings.rgb_order;
+  apply_tuning(settings, options_);
   if (!settings.depth)
     throw Error("System: settings without depth (Camera.bf / ThDepth) for RGB-D",
                 {settings.source.string(), "Camera.bf"});
@@ -96,9 +73,8 @@ void System::start_tracking(int width, int height) {
       settings_.camera, settings_.depth->bf, settings_.depth->close_depth, probe.scale_factors()));
   geometry->readout = settings_.readout_time;
   geometry->check();
-  tracker_ = std::make_unique<tracking::Tracker>(*shared_, *mapper_, vocabulary_, geometry,
-                                                 extractor_, settings_.camera, options_.tracking,
-                                                 options_.sequential_mapping);
+  tracker_ = std::make_unique<tracking::Tracker>(*shared_, mapper_.get(), vocabulary_, geometry,
+                                                 extractor_, settings_.camera, options_.tracking);
 }
 
 System::~System() {

@@ -1,13 +1,13 @@
 #pragma once
 // The RGB-D SLAM system: tracking in the caller's thread, local mapping in one std::thread,
-// joined by the mapper's bounded blocking queue; the map shared under SharedMap::mutex.
+// joined by the mapper's bounded blocking queue (the mapper is the tracker's keyframe sink); the
+// map shared under SharedMap::mutex. `tracking.wait_for_sink` makes it sequential.
 // Construct, call track() per frame, then shutdown() (also done by the destructor) and read
 // the trajectory. Not copyable; track() must be called from one thread at a time.
 #include <memory>
 #include <opencv2/core/mat.hpp>
 #include <string>
 
-#include "markers/detector.hpp"
 #include "slam/bow/vocabulary.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/core/trajectory.hpp"
@@ -15,21 +15,14 @@
 #include "slam/mapping/global_ba.hpp"
 #include "slam/mapping/local_mapper.hpp"
 #include "slam/settings/settings.hpp"
+#include "slam/system/options.hpp"
 #include "slam/tracking/tracker.hpp"
 
-namespace coloc::slam::system {
+namespace coloc::markers {
+class MarkerDetector;
+}
 
-struct SystemOptions {
-  tracking::TrackingOptions tracking;
-  mapping::LocalMappingOptions mapping;
-  // Tracking waits for local mapping after each keyframe: deterministic, slower (tests).
-  bool sequential_mapping = false;
-  bool detect_markers = true;  // run the marker detector on every keyframe
-  // Throws coloc::Error naming the first invalid field.
-  void check() const;
-  // The effective values, one per line (logged at start).
-  std::string describe() const;
-};
+namespace coloc::slam::system {
 
 struct SystemSummary {
   std::size_t frames = 0, tracked = 0, lost = 0;
@@ -45,14 +38,16 @@ class System {
  public:
   // Needs settings with depth (Camera.bf, ThDepth). Without Camera.width/height the first
   // image gives the size; later images of another size are rejected (coloc::Error naming
-  // Camera.width). `vocabulary` must outlive the System.
+  // Camera.width). The settings' Coloc.* keys override `options` (slam/system/tuning.hpp) and
+  // Camera.RGB sets tracking.rgb_input. `vocabulary` must outlive the System.
   System(const settings::Settings& settings, const bow::Vocabulary& vocabulary,
          SystemOptions options = {});
   ~System();
   System(const System&) = delete;
   System& operator=(const System&) = delete;
 
-  // `image` 8-bit BGR/grey, `depth` CV_32FC1 metres (0 = invalid), timestamp in seconds.
+  // `image` 8-bit grey, or colour in the settings' Camera.RGB order; `depth` CV_32FC1 metres
+  // (0 = invalid); timestamp in seconds.
   tracking::TrackingResult track(const cv::Mat& image, const cv::Mat& depth, double timestamp);
   // Stops local mapping (aborting a running BA) and joins its thread. Idempotent.
   void shutdown();

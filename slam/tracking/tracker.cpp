@@ -10,8 +10,8 @@
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/frame/rolling_shutter.hpp"
-#include "slam/tracking/pose_support.hpp"
-#include "slam/tracking/search.hpp"
+#include "slam/matching/pose_support.hpp"
+#include "slam/matching/search.hpp"
 
 namespace coloc::slam::tracking {
 
@@ -43,21 +43,35 @@ void TrackingOptions::check() const {
   relocalization.check();
 }
 
-Tracker::Tracker(map::SharedMap& map, mapping::LocalMapper& mapper,
-                 const bow::Vocabulary& vocabulary,
+Tracker::Tracker(map::SharedMap& map, map::KeyframeSink* sink, const bow::Vocabulary& vocabulary,
                  std::shared_ptr<const frame::FrameGeometry> geometry,
                  const features::ExtractorOptions& extractor, const Camera& camera,
-                 TrackingOptions options, bool sequential_mapping)
+                 TrackingOptions options)
     : shared_(map),
-      mapper_(mapper),
+      sink_(sink),
       vocabulary_(vocabulary),
       geometry_(std::move(geometry)),
       extractor_(extractor),
       camera_(camera),
-      options_(options),
-      sequential_(sequential_mapping) {
+      options_(options) {
   options_.check();
   geometry_->check();
+  if (!sink_) {
+    std::lock_guard lock(shared_.mutex);
+    if (shared_.map.keyframe_count() == 0)
+      throw Error("Tracker: localization only (no keyframe sink) needs a map with keyframes");
+    // Nothing to initialize: the first frame relocalizes in the given map.
+    state_ = TrackingState::kLost;
+  }
+}
+
+cv::Mat to_grey(const cv::Mat& image, bool rgb) {
+  cv::Mat grey = image;
+  if (image.channels() == 3)
+    cv::cvtColor(image, grey, rgb ? cv::COLOR_RGB2GRAY : cv::COLOR_BGR2GRAY);
+  if (image.channels() == 4)
+    cv::cvtColor(image, grey, rgb ? cv::COLOR_RGBA2GRAY : cv::COLOR_BGRA2GRAY);
+  return grey;
 }
 
 void Tracker::compute_bow(frame::Frame& f) const {
@@ -67,8 +81,7 @@ void Tracker::compute_bow(frame::Frame& f) const {
 TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double timestamp) {
   TrackingResult result;
   Stopwatch watch;
-  cv::Mat grey = image;
-  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  const cv::Mat grey = to_grey(image, options_.rgb_input);
   current_ = frame::Frame(frame_ids_.next(), timestamp, extractor_.extract(grey, &camera_), depth,
                           geometry_);
   result.extract_ms = watch.elapsed_ms();
@@ -123,16 +136,16 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
       result.keyframe_ms += stage.elapsed_ms();
     }
   }
-  if (result.keyframe || make_keyframe) {
-    mapper_.push({reference_, grey.clone()});
-    if (sequential_) mapper_.wait_idle();
+  if (sink_ && (result.keyframe || make_keyframe)) {
+    sink_->push({reference_, grey.clone()});
+    if (options_.wait_for_sink) sink_->wait_idle();
   }
   result.keyframe = result.keyframe || make_keyframe;
   result.state = state_;
   result.cam_from_world = current_.cam_from_world;
   result.inliers = matches_inliers_;
   if (result.state == TrackingState::kOk) {
-    drop_outliers(current_);
+    matching::drop_outliers(current_);
     last_ = current_;
   } else {
     last_ = frame::Frame();
@@ -154,7 +167,7 @@ void Tracker::refine_rolling_shutter(int image_rows) {
   frame::Frame uncompensated = current_;
   const Eigen::Vector3d pose_rate = -current_from_last.so3().log() / dt;
   current_.compensate_rolling_shutter(pose_rate, image_rows);
-  int after = optimize_frame_pose(current_, shared_.map);
+  int after = matching::optimize_frame_pose(current_, shared_.map);
   if (options_.rolling_shutter_rate_sigma > 0.0) {
     // The two-pose rate is noisy (two poses' errors over 33 ms): refine it with what the rows'
     // shear in this image asks for, then compensate again from the raw keypoints.
@@ -176,7 +189,7 @@ void Tracker::refine_rolling_shutter(int image_rows) {
     frame::Frame refined = uncompensated;
     refined.cam_from_world = current_.cam_from_world;
     refined.compensate_rolling_shutter(rate, image_rows);
-    after = optimize_frame_pose(refined, shared_.map);
+    after = matching::optimize_frame_pose(refined, shared_.map);
     current_ = std::move(refined);
   }
   // A poorly tracked (blurred) frame gives a wrong rate: the compensation is undone when it costs
@@ -227,19 +240,19 @@ bool Tracker::track_motion_model() {
   const map::Map& m = shared_.map;
   current_.cam_from_world = velocity_ * last_.cam_from_world;
   current_.points.assign(current_.size(), MapPointId::invalid());
-  int n = search_from_last_frame(current_, last_, m, options_.motion_search_radius);
+  int n = matching::search_from_last_frame(current_, last_, m, options_.motion_search_radius);
   if (n < 20) {
     current_.points.assign(current_.size(), MapPointId::invalid());
-    n = search_from_last_frame(current_, last_, m, 2.0 * options_.motion_search_radius);
+    n = matching::search_from_last_frame(current_, last_, m, 2.0 * options_.motion_search_radius);
   }
   if (n < 20) return false;
-  optimize_frame_pose(current_, m);
+  matching::optimize_frame_pose(current_, m);
   spdlog::debug("tracking: frame {} motion model {} matches", current_.id.value(), n);
   int kept = 0;
   for (std::size_t i = 0; i < current_.size(); ++i) {
     if (current_.points[i].valid() && !current_.outlier[i]) ++kept;
   }
-  drop_outliers(current_);
+  matching::drop_outliers(current_);
   return kept >= 10;
 }
 
@@ -250,10 +263,10 @@ bool Tracker::track_reference_keyframe() {
   compute_bow(current_);
   if (ref->frame.feature_vector.entries.empty()) compute_bow(ref->frame);
   current_.points.assign(current_.size(), MapPointId::invalid());
-  if (search_by_bow(*ref, current_, m) < 15) return false;
+  if (matching::search_by_bow(*ref, current_, m) < 15) return false;
   current_.cam_from_world = last_.cam_from_world;
-  const int inliers = optimize_frame_pose(current_, m);
-  drop_outliers(current_);
+  const int inliers = matching::optimize_frame_pose(current_, m);
+  matching::drop_outliers(current_);
   return inliers >= 10;
 }
 
@@ -337,8 +350,9 @@ bool Tracker::track_local_map() {
     if (!matched.count(p)) candidates.push_back(p);
   const bool recent_reloc =
       last_reloc_frame_.valid() && current_.id.value() < last_reloc_frame_.value() + 2;
-  search_local_points(current_, candidates, m, recent_reloc ? 5.0 : options_.local_search_th);
-  optimize_frame_pose(current_, m);
+  matching::search_local_points(current_, candidates, m,
+                                recent_reloc ? 5.0 : options_.local_search_th);
+  matching::optimize_frame_pose(current_, m);
   matches_inliers_ = 0;
   for (std::size_t i = 0; i < current_.size(); ++i) {
     if (!current_.points[i].valid() || current_.outlier[i]) continue;
@@ -358,6 +372,7 @@ bool Tracker::track_local_map() {
 
 bool Tracker::need_keyframe() const {
   const map::Map& m = shared_.map;
+  if (!sink_ || !sink_->accepting()) return false;
   const std::size_t n_kfs = m.keyframe_count();
   const std::uint64_t since_reloc =
       last_reloc_frame_.valid() ? current_.id.value() - last_reloc_frame_.value() : ~0ULL;
@@ -370,7 +385,7 @@ bool Tracker::need_keyframe() const {
   for (MapPointId p : ref->frame.points) {
     if (p.valid() && m.point(p) && m.weighted_observations(p) >= min_obs) ++ref_matches;
   }
-  const bool mapping_idle = mapper_.idle();
+  const bool mapping_idle = sink_->idle();
   int tracked_close = 0, untracked_close = 0;
   for (std::size_t i = 0; i < current_.size(); ++i) {
     if (!current_.is_close(i)) continue;
@@ -392,8 +407,8 @@ bool Tracker::need_keyframe() const {
       (matches_inliers_ < ref_matches * ref_ratio || need_close) && matches_inliers_ > 15;
   if (!((c1a || c1b || c1c) && c2)) return false;
   if (mapping_idle) return true;
-  mapper_.interrupt_ba();
-  return mapper_.queued() < 3;
+  sink_->interrupt();
+  return sink_->queued() < 3;
 }
 
 KeyframeId Tracker::add_current_keyframe() {
@@ -406,7 +421,7 @@ KeyframeId Tracker::add_current_keyframe() {
 
 void Tracker::create_keyframe() {
   map::Map& m = shared_.map;
-  drop_outliers(current_);
+  matching::drop_outliers(current_);
   const KeyframeId id = add_current_keyframe();
   // New points from depth: every close keypoint without a point, then far ones up to a quota.
   std::vector<std::pair<float, std::size_t>> by_depth;

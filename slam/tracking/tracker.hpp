@@ -4,7 +4,8 @@
 // fallback to the reference keyframe by BoW matching, relocalization when lost, local-map
 // tracking, and the keyframe decision (ORB-SLAM's criteria with the RGB-D close-points rule).
 // New keyframes (with their close-depth points) go into the map at once and their ids to the
-// local mapper's queue.
+// keyframe sink (local mapping). Without a sink the tracker localizes in the map it is given and
+// never adds keyframes or points to it (localization only).
 //
 // Threads: track() is called from one thread; it holds SharedMap::mutex while it reads or
 // writes the map, not while it extracts features.
@@ -14,8 +15,8 @@
 
 #include "slam/bow/vocabulary.hpp"
 #include "slam/frame/frame.hpp"
+#include "slam/map/keyframe_sink.hpp"
 #include "slam/map/shared_map.hpp"
-#include "slam/mapping/local_mapper.hpp"
 #include "slam/reloc/relocalizer.hpp"
 
 namespace coloc::slam::tracking {
@@ -41,6 +42,11 @@ struct TrackingOptions {
   // Prior sigma (rad/s) of the two-pose rotation rate when the rate is refined from the image's
   // row shear; 0 = use the two-pose rate as it is. (0.3 let fr1/rpy diverge in sequential runs.)
   double rolling_shutter_rate_sigma = 1.0;
+  // After each new keyframe, wait until the sink has processed it: deterministic, slower (tests,
+  // the --sequential runs that separate what tracking does from when).
+  bool wait_for_sink = false;
+  // Colour images are RGB (ORB-SLAM's Camera.RGB: 1), else BGR. Only the grey conversion uses it.
+  bool rgb_input = false;
   reloc::RelocalizationOptions relocalization;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
@@ -67,14 +73,22 @@ struct FrameRecord {
   bool tracked = false;
 };
 
+// The grey image tracking works on: 8-bit grey as it is, 3- or 4-channel colour converted with the
+// channel weights of its order (`rgb`: RGB(A), else BGR(A)).
+cv::Mat to_grey(const cv::Mat& image, bool rgb);
+
 class Tracker {
  public:
-  Tracker(map::SharedMap& map, mapping::LocalMapper& mapper, const bow::Vocabulary& vocabulary,
+  // `map`, `vocabulary` and `sink` must outlive the tracker. `sink` null: localization only, in
+  // a map that must already hold keyframes (coloc::Error otherwise); the first frame then
+  // relocalizes.
+  Tracker(map::SharedMap& map, map::KeyframeSink* sink, const bow::Vocabulary& vocabulary,
           std::shared_ptr<const frame::FrameGeometry> geometry,
           const features::ExtractorOptions& extractor, const Camera& camera,
-          TrackingOptions options, bool sequential_mapping);
+          TrackingOptions options);
 
-  // `image`: 8-bit grey or BGR; `depth`: CV_32FC1 metres registered to it (0 = invalid).
+  // `image`: 8-bit grey, or colour in the order options.rgb_input says; `depth`: CV_32FC1 metres
+  // registered to it (0 = invalid).
   TrackingResult track(const cv::Mat& image, const cv::Mat& depth, double timestamp);
 
   TrackingState state() const { return state_; }
@@ -99,13 +113,12 @@ class Tracker {
   void record_frame(bool tracked);  // appends current_ to records_ (map lock held)
 
   map::SharedMap& shared_;
-  mapping::LocalMapper& mapper_;
+  map::KeyframeSink* sink_;
   const bow::Vocabulary& vocabulary_;
   std::shared_ptr<const frame::FrameGeometry> geometry_;
   features::OrbExtractor extractor_;
   Camera camera_;
   TrackingOptions options_;
-  bool sequential_;
 
   IdIssuer<FrameId> frame_ids_;
   TrackingState state_ = TrackingState::kNotInitialized;

@@ -4,6 +4,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "e57io/reader.hpp"
 #include "registration/twin/generator.hpp"
 #include "registration/twin/image_writer.hpp"
 #include "slam/core/error.hpp"
@@ -11,9 +12,6 @@
 #include "slam/dataset/sequence.hpp"
 #include "slam/eval/trajectory_error.hpp"
 #include "tests/testing/data.hpp"
-#if COLOC_TWIN_E57
-#include "e57io/reader.hpp"
-#endif
 
 namespace coloc::registration::twin {
 namespace {
@@ -154,7 +152,6 @@ TEST_F(TwinGenerator, ScanFilesHoldStationsPointsAndFaces) {
   const auto stations = data_lines(*dir_a_ / "scan" / "stations.txt");
   ASSERT_EQ(stations.size(), 2u);
   EXPECT_EQ(data_lines(*dir_a_ / "scan" / "faces.txt").size(), 12u);
-#if COLOC_TWIN_E57
   const e57::Reader reader(*dir_a_ / "scan" / "scan.e57");
   ASSERT_EQ(reader.scans().size(), 2u);
   ASSERT_EQ(reader.images().size(), 12u);
@@ -175,7 +172,6 @@ TEST_F(TwinGenerator, ScanFilesHoldStationsPointsAndFaces) {
   const std::vector<std::uint8_t> jpeg = reader.read_image(7);
   const cv::Mat face = cv::imdecode(jpeg, cv::IMREAD_COLOR);
   EXPECT_EQ(face.cols, 96);
-#endif
 }
 
 TEST(TwinImageWriter, WritesInOrderAndReportsFailures) {

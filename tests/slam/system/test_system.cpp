@@ -17,13 +17,17 @@
 #include "slam/dataset/sequence.hpp"
 #include "slam/eval/trajectory_error.hpp"
 #include "slam/settings/settings.hpp"
-#include "slam/system/synthetic_scene.hpp"
+#include "slam/synthetic/synthetic_scene.hpp"
 #include "slam/system/system.hpp"
-#include "tests/slam/system/slam_test_support.hpp"
+#include "tests/slam/support/slam_test_support.hpp"
 #include "tests/testing/data.hpp"
 
 namespace coloc::slam::system {
 namespace {
+
+using synthetic::SyntheticFrame;
+using synthetic::SyntheticRgbdScene;
+using synthetic::SyntheticSceneOptions;
 
 using test_support::source_dir;
 using test_support::vocabulary;
@@ -37,7 +41,7 @@ TEST(SlamSystem, SyntheticSceneTracksWithMillimetreAccuracy) {
   scene_options.frames = 30;
   const SyntheticRgbdScene scene(scene_options);
   SystemOptions options;
-  options.sequential_mapping = true;
+  options.tracking.wait_for_sink = true;
   options.detect_markers = false;
   System slam(scene.settings(), vocabulary(), options);
   Trajectory truth;
@@ -80,7 +84,7 @@ TEST(SlamSystem, KeyframesStoreMarkerObservations) {
                                                   {size / 2, -size / 2, 0},
                                                   {-size / 2, -size / 2, 0}};
   SystemOptions options;
-  options.sequential_mapping = true;
+  options.tracking.wait_for_sink = true;
   options.tracking.max_frames_between_keyframes = 4;
   System slam(settings, vocabulary(), options);
   std::map<double, SE3> truth;
@@ -126,7 +130,7 @@ TumRun run_tum(const std::filesystem::path& dir, std::size_t skip_from, std::siz
                bool sequential) {
   const auto sequence = dataset::open_sequence(dir);
   SystemOptions options;
-  options.sequential_mapping = sequential;
+  options.tracking.wait_for_sink = sequential;
   System slam(tum1_settings(), vocabulary(), options);
   for (std::size_t i = 0; i < sequence->size(); ++i) {
     if (i >= skip_from && i < skip_from + skip_count) continue;
@@ -158,7 +162,7 @@ TEST(SlamSystem, RelocalizesAfterLosingTrackAndJumpingTwentyFrames) {
   const auto sequence = dataset::open_sequence(dir);
   const Trajectory& gt = sequence->ground_truth();
   SystemOptions options;
-  options.sequential_mapping = true;
+  options.tracking.wait_for_sink = true;
   options.detect_markers = false;
   System slam(tum1_settings(), vocabulary(), options);
   for (std::size_t i = 0; i < 8; ++i) {
@@ -241,7 +245,7 @@ TEST(SlamSystem, ImageSizeFromTheFirstFrameWhenSettingsOmitIt) {
   settings::Settings settings = scene.settings();
   std::visit([](auto& c) { c.width = c.height = 0; }, settings.camera);
   SystemOptions options;
-  options.sequential_mapping = true;
+  options.tracking.wait_for_sink = true;
   options.detect_markers = false;
   System slam(settings, vocabulary(), options);
   for (int i = 0; i < scene.size(); ++i) {

@@ -12,12 +12,17 @@
 #include <vector>
 
 #include "slam/eval/trajectory_error.hpp"
-#include "slam/system/synthetic_scene.hpp"
+#include "slam/synthetic/synthetic_scene.hpp"
 #include "slam/system/system.hpp"
-#include "tests/slam/system/slam_test_support.hpp"
+#include "tests/slam/support/slam_test_support.hpp"
 
 namespace coloc::slam::system {
 namespace {
+
+using synthetic::SyntheticFrame;
+using synthetic::SyntheticRgbdScene;
+using synthetic::SyntheticSceneOptions;
+using synthetic::SyntheticTrajectory;
 
 // Adds a keyframe observing `points` at keypoints 0.. and `fresh` new points after them.
 KeyframeId add_observer(map::Map& m, double x, const std::vector<MapPointId>& points,
@@ -110,7 +115,7 @@ TEST(KeyframeCulling, HoveringCameraCullsRedundantKeyframesAndKeepsTheMapConsist
   scene_options.room_max.z() = 3.1;
   const SyntheticRgbdScene scene(scene_options);
   SystemOptions options;
-  options.sequential_mapping = true;  // deterministic
+  options.tracking.wait_for_sink = true;  // deterministic
   options.detect_markers = false;
   options.tracking.min_frames_between_keyframes = 3;
   System slam(scene.settings(), test_support::vocabulary(), options);

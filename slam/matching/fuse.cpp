@@ -1,11 +1,11 @@
-#include "slam/mapping/fuse.hpp"
+#include "slam/matching/fuse.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-#include "slam/tracking/search.hpp"
+#include "slam/matching/search.hpp"
 
-namespace coloc::slam::mapping {
+namespace coloc::slam::matching {
 
 int fuse_points(map::Map& map, KeyframeId keyframe_id, const std::vector<MapPointId>& points,
                 double radius_px) {
@@ -46,7 +46,7 @@ int fuse_points(map::Map& map, KeyframeId keyframe_id, const std::vector<MapPoin
         best_idx = j;
       }
     }
-    if (best > tracking::kDescriptorLow) continue;
+    if (best > kDescriptorLow) continue;
     const MapPointId existing = f.points[best_idx];
     if (existing.valid() && map.point(existing)) {
       map.replace_point(id, existing);
@@ -58,4 +58,4 @@ int fuse_points(map::Map& map, KeyframeId keyframe_id, const std::vector<MapPoin
   return n;
 }
 
-}  // namespace coloc::slam::mapping
+}  // namespace coloc::slam::matching

@@ -8,7 +8,7 @@
 #include "slam/frame/frame.hpp"
 #include "slam/map/map.hpp"
 
-namespace coloc::slam::tracking {
+namespace coloc::slam::matching {
 
 constexpr int kDescriptorHigh = 100;  // ORB-SLAM's TH_HIGH (Hamming)
 constexpr int kDescriptorLow = 50;    // TH_LOW
@@ -38,4 +38,4 @@ int search_keyframe_points(frame::Frame& frame, const map::Keyframe& keyframe, c
 // index: frame keypoint -> map point. Needs both feature vectors.
 int search_by_bow(const map::Keyframe& keyframe, frame::Frame& frame, const map::Map& map);
 
-}  // namespace coloc::slam::tracking
+}  // namespace coloc::slam::matching

@@ -1,4 +1,4 @@
-#include "slam/tracking/search.hpp"
+#include "slam/matching/search.hpp"
 
 #include <algorithm>
 #include <array>
@@ -7,7 +7,7 @@
 
 #include "slam/bow/matcher.hpp"
 
-namespace coloc::slam::tracking {
+namespace coloc::slam::matching {
 
 std::vector<std::size_t> rotation_outliers(const std::vector<float>& angle_change) {
   constexpr int kBins = 30;
@@ -234,4 +234,4 @@ int search_by_bow(const map::Keyframe& keyframe, frame::Frame& frame, const map:
   return n;
 }
 
-}  // namespace coloc::slam::tracking
+}  // namespace coloc::slam::matching

@@ -1,6 +1,6 @@
-#include "slam/tracking/pose_support.hpp"
+#include "slam/matching/pose_support.hpp"
 
-namespace coloc::slam::tracking {
+namespace coloc::slam::matching {
 
 int optimize_frame_pose(frame::Frame& frame, const map::Map& map,
                         const optim::PoseOptimizerOptions& options) {
@@ -40,4 +40,4 @@ void drop_outliers(frame::Frame& frame) {
   }
 }
 
-}  // namespace coloc::slam::tracking
+}  // namespace coloc::slam::matching

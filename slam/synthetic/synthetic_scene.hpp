@@ -10,7 +10,7 @@
 #include "slam/core/se3.hpp"
 #include "slam/settings/settings.hpp"
 
-namespace coloc::slam::system {
+namespace coloc::slam::synthetic {
 
 // kWander: a Lissajous-like path over the room (frequencies about 1 rad/s).
 // kHover: a slow oscillation around the start pose (period hover_period_s), so the camera
@@ -54,4 +54,4 @@ class SyntheticRgbdScene {
   SyntheticSceneOptions options_;
 };
 
-}  // namespace coloc::slam::system
+}  // namespace coloc::slam::synthetic

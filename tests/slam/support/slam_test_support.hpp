@@ -1,11 +1,14 @@
 #pragma once
 // Shared by the SLAM system tests: the shipped vocabulary (loaded once per test binary) and the
 // source tree it is read from, a small test camera, and the map consistency check.
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <opencv2/core/mat.hpp>
+#include <random>
 #include <string>
+#include <vector>
 
 #include "slam/bow/vocabulary.hpp"
 #include "slam/frame/frame.hpp"
@@ -38,7 +41,6 @@ inline std::shared_ptr<const frame::FrameGeometry> test_geometry() {
       frame::FrameGeometry::make(cam, 40.0, 3.0, {1.0f, 1.2f, 1.44f}));
 }
 
-// Every relation of the map checked from both sides; returns the first problem found.
 // A keyframe with n keypoints on a row (9 px apart from x = 20, y = 240), all at depth 2 m,
 // with distinct descriptors, its camera centre at `centre` looking along +z.
 inline map::Keyframe row_keyframe(map::Map& m, std::size_t n, const Eigen::Vector3d& centre) {
@@ -60,6 +62,55 @@ inline map::Keyframe row_keyframe(map::Map& m, std::size_t n, const Eigen::Vecto
   return kf;
 }
 
+// Random 256-bit descriptors (pairwise Hamming distances near 128), reproducible by seed.
+inline std::vector<features::Descriptor> random_descriptors(std::size_t n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::vector<features::Descriptor> out(n);
+  for (auto& d : out)
+    for (auto& word : d)
+      word = rng();
+  return out;
+}
+
+// A keyframe whose keypoint i is world point i projected exactly (level 0) through
+// `cam_from_world` of the test camera, with descriptor i. With `depth`, each keypoint reads its
+// true depth; without, every keypoint is monocular. Points behind the camera or outside the
+// image are left out (keypoint indices then skip them: the returned map says which is which).
+struct ProjectedKeyframe {
+  map::Keyframe keyframe;
+  std::vector<int> keypoint_of_point;  // -1 when not visible
+};
+inline ProjectedKeyframe projected_keyframe(map::Map& m, const std::vector<Eigen::Vector3d>& world,
+                                            const std::vector<features::Descriptor>& descriptors,
+                                            const SE3& cam_from_world, bool depth) {
+  const auto geometry = test_geometry();
+  features::OrbFeatures f;
+  cv::Mat depth_image(480, 640, CV_32FC1, cv::Scalar(0.0f));
+  ProjectedKeyframe out;
+  out.keypoint_of_point.assign(world.size(), -1);
+  for (std::size_t i = 0; i < world.size(); ++i) {
+    const Eigen::Vector3d pc = cam_from_world * world[i];
+    if (pc.z() <= 0.1) continue;
+    const Eigen::Vector2d uv = geometry->project(pc);
+    if (!geometry->in_bounds(uv) || uv.x() < 1 || uv.y() < 1) continue;
+    features::Keypoint kp;
+    kp.x = kp.ux = static_cast<float>(uv.x());
+    kp.y = kp.uy = static_cast<float>(uv.y());
+    out.keypoint_of_point[i] = static_cast<int>(f.keypoints.size());
+    f.keypoints.push_back(kp);
+    f.descriptors.push_back(descriptors[i]);
+    depth_image.at<float>(static_cast<int>(std::lround(uv.y())),
+                          static_cast<int>(std::lround(uv.x()))) = static_cast<float>(pc.z());
+  }
+  out.keyframe.id = m.next_keyframe_id();
+  out.keyframe.frame = frame::Frame(FrameId(out.keyframe.id.value()), 0.0, std::move(f),
+                                    depth ? depth_image : cv::Mat(), geometry);
+  out.keyframe.frame.cam_from_world = cam_from_world;
+  out.keyframe.frame.has_pose = true;
+  return out;
+}
+
+// Every relation of the map checked from both sides; returns the first problem found.
 inline std::string map_problem(const map::Map& m) {
   const auto id = [](auto k) { return std::to_string(k.value()); };
   for (const auto& [pid, p] : m.points()) {

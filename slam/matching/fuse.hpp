@@ -7,10 +7,10 @@
 
 #include "slam/map/map.hpp"
 
-namespace coloc::slam::mapping {
+namespace coloc::slam::matching {
 
 // Returns the number of fused or added observations.
 int fuse_points(map::Map& map, KeyframeId keyframe, const std::vector<MapPointId>& points,
                 double radius_px);
 
-}  // namespace coloc::slam::mapping
+}  // namespace coloc::slam::matching

@@ -8,12 +8,16 @@
 
 #include "slam/eval/trajectory_error.hpp"
 #include "slam/mapping/global_ba.hpp"
-#include "slam/system/synthetic_scene.hpp"
+#include "slam/synthetic/synthetic_scene.hpp"
 #include "slam/system/system.hpp"
-#include "tests/slam/system/slam_test_support.hpp"
+#include "tests/slam/support/slam_test_support.hpp"
 
 namespace coloc::slam::system {
 namespace {
+
+using synthetic::SyntheticFrame;
+using synthetic::SyntheticRgbdScene;
+using synthetic::SyntheticSceneOptions;
 
 TEST(GlobalBundleAdjustment, RecoversPerturbedPosesAndPoints) {
   std::mt19937 rng(5);
@@ -102,7 +106,7 @@ TEST(GlobalBundleAdjustment, KeepsASlamMapConsistentAndAccurate) {
   scene_options.frames = 30;
   const SyntheticRgbdScene scene(scene_options);
   SystemOptions options;
-  options.sequential_mapping = true;
+  options.tracking.wait_for_sink = true;
   options.detect_markers = false;
   System slam(scene.settings(), test_support::vocabulary(), options);
   Trajectory truth;

@@ -1,4 +1,4 @@
-#include "slam/system/synthetic_scene.hpp"
+#include "slam/synthetic/synthetic_scene.hpp"
 
 #include <cmath>
 #include <limits>
@@ -6,7 +6,7 @@
 
 #include "slam/core/error.hpp"
 
-namespace coloc::slam::system {
+namespace coloc::slam::synthetic {
 
 void SyntheticSceneOptions::check() const {
   if (frames < 1) throw Error("SyntheticSceneOptions.frames must be >= 1");
@@ -137,4 +137,4 @@ settings::Settings SyntheticRgbdScene::settings() const {
   return s;
 }
 
-}  // namespace coloc::slam::system
+}  // namespace coloc::slam::synthetic

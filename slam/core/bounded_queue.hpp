@@ -8,7 +8,7 @@
 #include <mutex>
 #include <optional>
 
-namespace coloc::slam::mapping {
+namespace coloc {
 
 template <typename T>
 class BoundedQueue {
@@ -61,4 +61,4 @@ class BoundedQueue {
   bool closed_ = false;
 };
 
-}  // namespace coloc::slam::mapping
+}  // namespace coloc

@@ -4,7 +4,7 @@
 #include "slam/map/map.hpp"
 #include "slam/optim/pose_optimizer.hpp"
 
-namespace coloc::slam::tracking {
+namespace coloc::slam::matching {
 
 // Optimizes frame.cam_from_world against its matched points; sets frame.outlier; returns the
 // number of inliers.
@@ -14,4 +14,4 @@ int optimize_frame_pose(frame::Frame& frame, const map::Map& map,
 // Clears the matches flagged as outliers (and their flags).
 void drop_outliers(frame::Frame& frame);
 
-}  // namespace coloc::slam::tracking
+}  // namespace coloc::slam::matching

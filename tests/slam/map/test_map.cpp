@@ -1,7 +1,7 @@
 #include <gtest/gtest.h>
 
 #include "slam/map/map.hpp"
-#include "tests/slam/system/slam_test_support.hpp"
+#include "tests/slam/support/slam_test_support.hpp"
 
 namespace coloc::slam::map {
 namespace {

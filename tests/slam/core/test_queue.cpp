@@ -3,9 +3,9 @@
 #include <thread>
 #include <vector>
 
-#include "slam/mapping/bounded_queue.hpp"
+#include "slam/core/bounded_queue.hpp"
 
-namespace coloc::slam::mapping {
+namespace coloc {
 namespace {
 
 TEST(BoundedQueue, KeepsOrderAndBlocksProducerWhenFull) {
@@ -50,4 +50,4 @@ TEST(BoundedQueue, CloseWakesABlockedConsumerAndProducer) {
 }
 
 }  // namespace
-}  // namespace coloc::slam::mapping
+}  // namespace coloc

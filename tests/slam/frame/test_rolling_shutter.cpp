@@ -7,7 +7,7 @@
 #include "slam/core/so3.hpp"
 #include "slam/frame/frame.hpp"
 #include "slam/frame/rolling_shutter.hpp"
-#include "tests/slam/system/slam_test_support.hpp"
+#include "tests/slam/support/slam_test_support.hpp"
 
 namespace coloc::slam::frame {
 namespace {

@@ -14,8 +14,8 @@
 #include "slam/frame/frame.hpp"
 #include "slam/map/map.hpp"
 #include "slam/reloc/relocalizer.hpp"
-#include "slam/system/synthetic_scene.hpp"
-#include "tests/slam/system/slam_test_support.hpp"
+#include "slam/synthetic/synthetic_scene.hpp"
+#include "tests/slam/support/slam_test_support.hpp"
 
 namespace coloc::slam::reloc {
 namespace {
@@ -34,9 +34,9 @@ class SyntheticMap {
   frame::Frame make_frame(int index) { return frame_of(scene_, index, *this); }
 
   // A frame of any scene, with the features, geometry and BoW of `like`.
-  static frame::Frame frame_of(const system::SyntheticRgbdScene& scene, int index,
+  static frame::Frame frame_of(const synthetic::SyntheticRgbdScene& scene, int index,
                                SyntheticMap& like) {
-    const system::SyntheticFrame f = scene.frame(index);
+    const synthetic::SyntheticFrame f = scene.frame(index);
     cv::Mat grey;
     cv::cvtColor(f.color, grey, cv::COLOR_BGR2GRAY);
     frame::Frame out(FrameId(static_cast<std::uint64_t>(index) + 1), f.timestamp,
@@ -61,17 +61,17 @@ class SyntheticMap {
     return id;
   }
 
-  const system::SyntheticRgbdScene& scene() const { return scene_; }
+  const synthetic::SyntheticRgbdScene& scene() const { return scene_; }
   const map::Map& map() const { return map_; }
   const bow::BowDatabase& database() const { return database_; }
 
  private:
-  static system::SyntheticSceneOptions options(int frames) {
-    system::SyntheticSceneOptions o;
+  static synthetic::SyntheticSceneOptions options(int frames) {
+    synthetic::SyntheticSceneOptions o;
     o.frames = frames;
     return o;
   }
-  system::SyntheticRgbdScene scene_;
+  synthetic::SyntheticRgbdScene scene_;
   std::unique_ptr<features::OrbExtractor> extractor_;
   std::shared_ptr<const frame::FrameGeometry> geometry_;
   map::Map map_;
@@ -141,10 +141,10 @@ TEST(Relocalization, RelocalizesSyntheticFramesAgainstDenseAndSparseMaps) {
 TEST(Relocalization, FailsCleanlyOnAnUnknownPlace) {
   SyntheticMap m(2);
   m.add_keyframe(0);
-  system::SyntheticSceneOptions other;
+  synthetic::SyntheticSceneOptions other;
   other.seed = 99;
   other.frames = 1;
-  frame::Frame f = SyntheticMap::frame_of(system::SyntheticRgbdScene(other), 0, m);
+  frame::Frame f = SyntheticMap::frame_of(synthetic::SyntheticRgbdScene(other), 0, m);
   const RelocalizationResult r = relocalize(f, m.map(), m.database());
   EXPECT_FALSE(r.success);
   EXPECT_EQ(r.inliers, 0);

@@ -1,0 +1,110 @@
+// The tracker on its own: it hands keyframes to whatever sink it is given, and without one it
+// localizes in a fixed map (localization only) without adding anything to it.
+#include <gtest/gtest.h>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "slam/core/error.hpp"
+#include "slam/eval/trajectory_error.hpp"
+#include "slam/mapping/local_mapper.hpp"
+#include "slam/synthetic/synthetic_scene.hpp"
+#include "slam/tracking/tracker.hpp"
+#include "tests/slam/support/pipeline.hpp"
+#include "tests/slam/support/slam_test_support.hpp"
+
+namespace coloc::slam::tracking {
+namespace {
+
+using synthetic::SyntheticFrame;
+using synthetic::SyntheticRgbdScene;
+using synthetic::SyntheticSceneOptions;
+using test_support::RecordingSink;
+using test_support::tracker_inputs;
+using test_support::vocabulary;
+
+Tracker make_tracker(map::SharedMap& shared, map::KeyframeSink* sink,
+                     const SyntheticRgbdScene& scene, TrackingOptions options = {}) {
+  const auto in = tracker_inputs(scene.settings());
+  return Tracker(shared, sink, vocabulary(), in.geometry, in.extractor, in.camera, options);
+}
+
+TEST(Tracker, GreyConversionFollowsTheChannelOrder) {
+  cv::Mat bgr(2, 2, CV_8UC3, cv::Scalar(200, 50, 10));  // blue-ish: B and R weigh differently
+  cv::Mat rgb;
+  cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
+  const cv::Mat from_bgr = to_grey(bgr, false), from_rgb = to_grey(rgb, true);
+  EXPECT_EQ(cv::countNonZero(from_bgr != from_rgb), 0);
+  EXPECT_NE(cv::countNonZero(to_grey(bgr, true) != from_bgr), 0);  // the order matters
+  const cv::Mat grey(2, 2, CV_8UC1, cv::Scalar(77));
+  EXPECT_EQ(to_grey(grey, true).data, grey.data);  // grey passes through, not copied
+}
+
+TEST(Tracker, LocalizationOnlyNeedsAMapWithKeyframes) {
+  const SyntheticRgbdScene scene;
+  map::SharedMap empty;
+  EXPECT_THROW(make_tracker(empty, nullptr, scene), Error);
+}
+
+TEST(Tracker, MakesNoKeyframeWhileItsSinkDoesNotAccept) {
+  const SyntheticRgbdScene scene;
+  map::SharedMap shared;
+  RecordingSink sink;
+  sink.accept = false;
+  Tracker tracker = make_tracker(shared, &sink, scene);
+  for (int i = 0; i < scene.size(); ++i) {
+    const SyntheticFrame f = scene.frame(i);
+    EXPECT_EQ(tracker.track(f.color, f.depth, f.timestamp).state, TrackingState::kOk);
+  }
+  // Only the initial keyframe, which tracking needs to exist at all.
+  EXPECT_EQ(sink.ids().size(), 1u);
+  EXPECT_EQ(shared.map.keyframe_count(), 1u);
+}
+
+TEST(Tracker, WithoutASinkLocalizesInAFixedMapAndLeavesItAsItWas) {
+  SyntheticSceneOptions scene_options;
+  scene_options.frames = 60;
+  const SyntheticRgbdScene scene(scene_options);
+  map::SharedMap shared;
+  Trajectory truth, mapped;
+  {
+    mapping::LocalMapper mapper(shared, vocabulary(), nullptr, 0.0, {});
+    mapper.start();
+    TrackingOptions options;
+    options.wait_for_sink = true;
+    Tracker mapping_tracker = make_tracker(shared, &mapper, scene, options);
+    for (int i = 0; i < 40; ++i) {
+      const SyntheticFrame f = scene.frame(i);
+      const auto r = mapping_tracker.track(f.color, f.depth, f.timestamp);
+      ASSERT_EQ(r.state, TrackingState::kOk) << "frame " << i;
+      truth.push_back({f.timestamp, f.world_from_cam});
+      mapped.push_back({f.timestamp, r.cam_from_world.inverse()});
+    }
+    mapper.stop();
+  }
+  // The map's frame in the scene's: from the mapping run.
+  const Sim3 truth_from_map = eval::compute_ate(truth, mapped).gt_from_est;
+  const std::size_t keyframes = shared.map.keyframe_count(), points = shared.map.point_count();
+
+  // Localization starts cold in the middle of the mapped walk (relocalization) and follows the
+  // camera on, including 20 frames past the end of the mapped part.
+  Tracker localizer = make_tracker(shared, nullptr, scene);
+  EXPECT_EQ(localizer.state(), TrackingState::kLost);
+  double worst = 0.0;
+  for (int i = 20; i < 60; ++i) {
+    const SyntheticFrame f = scene.frame(i);
+    const auto r = localizer.track(f.color, f.depth, f.timestamp);
+    ASSERT_EQ(r.state, TrackingState::kOk) << "frame " << i;
+    EXPECT_EQ(r.relocalized, i == 20) << "frame " << i;
+    EXPECT_FALSE(r.keyframe);
+    const SE3 world_from_cam = truth_from_map.to_se3() * r.cam_from_world.inverse();
+    worst = std::max(worst, translation_distance(world_from_cam, f.world_from_cam));
+  }
+  EXPECT_LT(worst, 0.01);
+  EXPECT_EQ(shared.map.keyframe_count(), keyframes);
+  EXPECT_EQ(shared.map.point_count(), points);
+  EXPECT_EQ(localizer.relocalizations(), 1);
+}
+
+}  // namespace
+}  // namespace coloc::slam::tracking
