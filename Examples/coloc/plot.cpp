@@ -64,11 +64,15 @@ fs::path temp_file(const std::string& suffix) {
   return name;
 }
 
+// The script's messages, without the trailing newline (they end an error message).
 std::string read_text(const fs::path& path) {
   std::ifstream in(path);
   std::ostringstream s;
   s << in.rdbuf();
-  return s.str();
+  std::string text = s.str();
+  while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back())))
+    text.pop_back();
+  return text;
 }
 
 // Runs `argv` with stdout and stderr into `log` (stdout stays clean for --json); returns the

@@ -2,8 +2,6 @@
 // the OSMesa renderer (registration/render).
 
 #include <cstdio>
-#include <iostream>
-#include <sstream>
 
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/verbs.hpp"
