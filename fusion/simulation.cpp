@@ -126,17 +126,7 @@ Trajectory replay_session(const SimulatedSession& session, const FuserOptions& o
 }
 
 Trajectory replay_session(const SimulatedSession& session, DriftFuser& fuser) {
-  Trajectory out;
-  out.reserve(session.headset.size());
-  std::size_t g = 0;
-  for (const StampedPose& h : session.headset) {
-    while (g < session.global.size() && session.global[g].arrival_time <= h.timestamp) {
-      fuser.push_global_pose(session.global[g].exposure_time, session.global[g].world_from_head);
-      ++g;
-    }
-    out.push_back({h.timestamp, fuser.push_xr_pose(h.timestamp, h.world_from_cam).world_from_head});
-  }
-  return out;
+  return replay_headset(session.headset, session.global, fuser);
 }
 
 Trajectory raw_headset(const SimulatedSession& session) {

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "fusion/fuser.hpp"
+#include "fusion/replay.hpp"  // GlobalSample
 #include "slam/core/trajectory.hpp"
 
 namespace coloc::fusion {
@@ -46,13 +47,6 @@ struct SessionOptions {
   void check() const;  // throws coloc::Error naming the field
 };
 
-struct GlobalSample {
-  double exposure_time = 0.0;  // stamp of the pose
-  double arrival_time = 0.0;   // when it reaches the fuser
-  SE3 world_from_head;
-  bool outlier = false;
-};
-
 struct SimulatedSession {
   Trajectory truth;    // world_from_head at the headset's sample times
   Trajectory headset;  // xr_from_head at the same times
@@ -65,7 +59,8 @@ SimulatedSession simulate_session(const SessionOptions& options);
 // The true head pose of the simulated walk at any time (world_from_head).
 SE3 simulated_head_pose(double time);
 
-// Feeds the session to a DriftFuser in arrival order; returns one fused pose per headset sample.
+// Feeds the session to a DriftFuser in arrival order (replay_headset); returns one fused pose per
+// headset sample.
 Trajectory replay_session(const SimulatedSession& session, const FuserOptions& options);
 // The same into a given fuser (e.g. to warm it up before timing it).
 Trajectory replay_session(const SimulatedSession& session, DriftFuser& fuser);

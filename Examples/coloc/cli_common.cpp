@@ -1,47 +1,47 @@
 #include "Examples/coloc/cli_common.hpp"
 
-#include <cmath>
-#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+
+// The CLI's CMakeLists defines COLOC_SOURCE_DIR; "." keeps a stray build of a single file working.
+#ifndef COLOC_SOURCE_DIR
+#define COLOC_SOURCE_DIR "."
+#endif
 
 namespace coloc::cli {
 
-std::string json_string(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    switch (c) {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      case '\r':
-        out += "\\r";
-        break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          char buf[8];
-          std::snprintf(buf, sizeof(buf), "\\u%04x", c);
-          out += buf;
-        } else {
-          out += c;
-        }
-    }
-  }
-  return out + "\"";
+void print_json(const Json& document) {
+  std::cout << document.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
 }
 
-std::string json_number(double v) {
-  if (!std::isfinite(v)) return "null";
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%.9g", v);
-  return buf;
+Json json_rows(const Eigen::MatrixXd& m) {
+  Json rows = Json::array();
+  for (Eigen::Index r = 0; r < m.rows(); ++r) {
+    Json row = Json::array();
+    for (Eigen::Index c = 0; c < m.cols(); ++c)
+      row.push_back(m(r, c));
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+Json json_row_major(const Eigen::MatrixXd& m) {
+  Json flat = Json::array();
+  for (Eigen::Index r = 0; r < m.rows(); ++r) {
+    for (Eigen::Index c = 0; c < m.cols(); ++c)
+      flat.push_back(m(r, c));
+  }
+  return flat;
+}
+
+std::filesystem::path source_dir() {
+  if (const char* env = std::getenv("COLOC_SOURCE_DIR"); env != nullptr && *env != '\0') return env;
+  return COLOC_SOURCE_DIR;
+}
+
+std::filesystem::path default_data_dir() {
+  if (const char* env = std::getenv("COLOC_DATA"); env != nullptr && *env != '\0') return env;
+  return source_dir().parent_path() / "shared" / "data";
 }
 
 }  // namespace coloc::cli

@@ -1,6 +1,10 @@
 #pragma once
-// Small helpers shared by the CLI verbs: exit-code carrying failures and JSON output.
+// Small helpers shared by the CLI verbs: exit-code carrying failures, JSON output, and where
+// the repository and the shared data are.
 
+#include <Eigen/Core>
+#include <filesystem>
+#include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <string>
 
@@ -13,10 +17,23 @@ class CliFailure : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Quotes and escapes a string for JSON output.
-std::string json_string(const std::string& s);
+// JSON documents keep their keys in insertion order, so --json output reads like the text.
+using Json = nlohmann::ordered_json;
 
-// Formats a double for JSON (finite numbers with 9 significant digits, null otherwise).
-std::string json_number(double v);
+// Prints `document` on stdout as one line. Non-finite numbers become null; bytes that are not
+// UTF-8 (e.g. in file names) are replaced rather than failing the verb after its work.
+void print_json(const Json& document);
+
+// A matrix as nested rows ([[m00, m01, ...], [m10, ...], ...]).
+Json json_rows(const Eigen::MatrixXd& m);
+// A matrix as one flat row-major array.
+Json json_row_major(const Eigen::MatrixXd& m);
+
+// The repository (shipped vocabulary, camera files, plot script): $COLOC_SOURCE_DIR, else the
+// source tree this binary was built from.
+std::filesystem::path source_dir();
+
+// The shared real recordings: $COLOC_DATA, else ../shared/data next to the repository.
+std::filesystem::path default_data_dir();
 
 }  // namespace coloc::cli

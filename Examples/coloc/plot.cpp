@@ -1,97 +1,170 @@
 #include "Examples/coloc/plot.hpp"
 
-#include <algorithm>
-#include <cmath>
-#include <cstdio>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <algorithm>
+#include <cctype>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include "Examples/coloc/cli_common.hpp"
 #include "slam/core/error.hpp"
+
+// Set by Examples/coloc/CMakeLists.txt: the python3 found at configure time ("" if none).
+#ifndef COLOC_PYTHON3
+#define COLOC_PYTHON3 ""
+#endif
 
 namespace coloc::cli {
 namespace {
 
-constexpr int kPanelW = 640;
-constexpr int kPanelH = 520;
-constexpr int kMargin = 60;
+namespace fs = std::filesystem;
 
-std::string tick_label(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%.3g", v);
-  return buf;
+// Exit code of plot.py when `import matplotlib` fails.
+constexpr int kMatplotlibMissing = 3;
+
+std::string format_of(const fs::path& path) {
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext.empty() ? ext : ext.substr(1);
 }
 
-void draw_panel(cv::Mat& canvas, int x0, const Panel& panel) {
-  Eigen::Vector2d lo = Eigen::Vector2d::Constant(1e300);
-  Eigen::Vector2d hi = Eigen::Vector2d::Constant(-1e300);
-  for (const auto& s : panel.series) {
-    for (const auto& p : s.points) {
-      lo = lo.cwiseMin(p);
-      hi = hi.cwiseMax(p);
+Json describe(const std::vector<Panel>& panels) {
+  Json out = Json::array();
+  for (const Panel& p : panels) {
+    Json series = Json::array();
+    for (const Series& s : p.series) {
+      Json x = Json::array(), y = Json::array();
+      for (const Eigen::Vector2d& v : s.points) {
+        x.push_back(v.x());
+        y.push_back(v.y());
+      }
+      series.push_back({{"label", s.label}, {"x", x}, {"y", y}, {"colour", s.colour}});
     }
+    out.push_back({{"title", p.title},
+                   {"x_label", p.x_label},
+                   {"y_label", p.y_label},
+                   {"equal_aspect", p.equal_aspect},
+                   {"series", series}});
   }
-  if (lo.x() > hi.x()) lo = hi = Eigen::Vector2d::Zero();
-  Eigen::Vector2d span = (hi - lo).cwiseMax(1e-9);
-  const double plot_w = kPanelW - 2.0 * kMargin;
-  const double plot_h = kPanelH - 2.0 * kMargin;
-  Eigen::Vector2d scale(plot_w / span.x(), plot_h / span.y());
-  if (panel.equal_aspect) scale.setConstant(scale.minCoeff());
-  // Centre the data in the plot area.
-  const Eigen::Vector2d centre = 0.5 * (lo + hi);
-  auto to_px = [&](const Eigen::Vector2d& p) {
-    return cv::Point(static_cast<int>(x0 + kPanelW / 2.0 + (p.x() - centre.x()) * scale.x()),
-                     static_cast<int>(kPanelH / 2.0 - (p.y() - centre.y()) * scale.y()));
-  };
-  const cv::Scalar grey(160, 160, 160);
-  cv::rectangle(canvas, cv::Point(x0 + kMargin, kMargin),
-                cv::Point(x0 + kPanelW - kMargin, kPanelH - kMargin), grey, 1);
-  // Axis ticks at the data bounds, in the data's units.
-  const Eigen::Vector2d view_lo(centre.x() - plot_w / 2 / scale.x(),
-                                centre.y() - plot_h / 2 / scale.y());
-  const Eigen::Vector2d view_hi(centre.x() + plot_w / 2 / scale.x(),
-                                centre.y() + plot_h / 2 / scale.y());
-  const auto font = cv::FONT_HERSHEY_SIMPLEX;
-  cv::putText(canvas, tick_label(view_lo.x()), {x0 + kMargin, kPanelH - kMargin + 18}, font, 0.4,
-              grey);
-  cv::putText(canvas, tick_label(view_hi.x()),
-              {x0 + kPanelW - kMargin - 30, kPanelH - kMargin + 18}, font, 0.4, grey);
-  cv::putText(canvas, tick_label(view_lo.y()), {x0 + 5, kPanelH - kMargin}, font, 0.4, grey);
-  cv::putText(canvas, tick_label(view_hi.y()), {x0 + 5, kMargin + 5}, font, 0.4, grey);
-  cv::putText(canvas, panel.title, {x0 + kMargin, 30}, font, 0.6, cv::Scalar(0, 0, 0), 1,
-              cv::LINE_AA);
-  cv::putText(canvas, panel.x_label, {x0 + kPanelW / 2 - 20, kPanelH - 20}, font, 0.45,
-              cv::Scalar(0, 0, 0));
-  cv::putText(canvas, panel.y_label, {x0 + 5, kMargin - 12}, font, 0.45, cv::Scalar(0, 0, 0));
-  int legend_y = kMargin + 20;
-  for (const auto& s : panel.series) {
-    const cv::Scalar colour(s.bgr.x(), s.bgr.y(), s.bgr.z());
-    for (std::size_t i = 1; i < s.points.size(); ++i) {
-      cv::line(canvas, to_px(s.points[i - 1]), to_px(s.points[i]), colour, 2, cv::LINE_AA);
-    }
-    if (s.points.size() == 1) cv::circle(canvas, to_px(s.points[0]), 3, colour, -1);
-    cv::line(canvas, {x0 + kPanelW - kMargin - 150, legend_y - 4},
-             {x0 + kPanelW - kMargin - 125, legend_y - 4}, colour, 2);
-    cv::putText(canvas, s.label, {x0 + kPanelW - kMargin - 118, legend_y}, font, 0.45, colour, 1,
-                cv::LINE_AA);
-    legend_y += 18;
-  }
+  return {{"panels", out}};
 }
+
+// A temporary file (created, closed) whose name ends in `suffix`; the caller removes it.
+fs::path temp_file(const std::string& suffix) {
+  std::string name = (fs::temp_directory_path() / ("coloc_plot_XXXXXX" + suffix)).string();
+  const int fd = mkstemps(name.data(), static_cast<int>(suffix.size()));
+  if (fd < 0) throw Error("cannot create a temporary file", {.file = name});
+  close(fd);
+  return name;
+}
+
+// The script's messages, without the trailing newline (they end an error message).
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path);
+  std::ostringstream s;
+  s << in.rdbuf();
+  std::string text = s.str();
+  while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back())))
+    text.pop_back();
+  return text;
+}
+
+// Runs `argv` with stdout and stderr into `log` (stdout stays clean for --json); returns the
+// exit status (-1 when it did not exit normally).
+int run_logged(const std::vector<std::string>& args, const fs::path& log) {
+  std::vector<char*> argv;
+  std::vector<std::string> store = args;
+  for (auto& a : store)
+    argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(), O_WRONLY | O_TRUNC, 0);
+  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+  pid_t pid = 0;
+  const int spawned = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (spawned != 0) return -1;
+  int status = 0;
+  if (waitpid(pid, &status, 0) < 0 || !WIFEXITED(status)) return -1;
+  return WEXITSTATUS(status);
+}
+
+// Files removed when the plot is done, however it ends.
+struct TempFiles {
+  std::vector<fs::path> paths;
+  ~TempFiles() {
+    std::error_code ignored;
+    for (const auto& p : paths)
+      fs::remove(p, ignored);
+  }
+};
 
 }  // namespace
 
-void write_plot(const std::filesystem::path& path, const std::vector<Panel>& panels) {
-  cv::Mat canvas(kPanelH, kPanelW * static_cast<int>(std::max<std::size_t>(1, panels.size())),
-                 CV_8UC3, cv::Scalar(255, 255, 255));
-  for (std::size_t i = 0; i < panels.size(); ++i) {
-    draw_panel(canvas, static_cast<int>(i) * kPanelW, panels[i]);
+void check_plot_path(const fs::path& path) {
+  const std::string format = format_of(path);
+  if (format != "png" && format != "pdf" && format != "svg")
+    throw Error("a plot must be a .png, .pdf or .svg file", {.file = path.string()});
+  if (fs::is_directory(path)) throw Error("the plot path is a folder", {.file = path.string()});
+  const fs::path dir = path.parent_path().empty() ? fs::path(".") : path.parent_path();
+  if (!fs::is_directory(dir))
+    throw Error("the plot's folder does not exist", {.file = path.string()});
+  // The plot is written next to its final name and renamed: the folder must take new files.
+  if (access(dir.c_str(), W_OK | X_OK) != 0)
+    throw Error("the plot's folder is not writable", {.file = path.string()});
+}
+
+void write_plot(const fs::path& path, const std::vector<Panel>& panels) {
+  check_plot_path(path);
+  const std::string python = COLOC_PYTHON3;
+  if (python.empty() || access(python.c_str(), X_OK) != 0)
+    throw Error("python3 not found (looked for at configure time: '" + python +
+                    "'): install python3 and python3-matplotlib (scripts/install_deps.sh), "
+                    "then re-run cmake",
+                {.file = path.string()});
+  const fs::path script = source_dir() / "Examples" / "coloc" / "plot.py";
+  if (!fs::exists(script)) throw Error("plot script not found", {.file = script.string()});
+
+  const fs::path description = temp_file(".json");
+  const fs::path log = temp_file(".log");
+  // Hidden, unique and in the final folder, so the rename is atomic.
+  std::string partial_name = ".";
+  partial_name += path.filename().string();
+  partial_name += ".partial-" + std::to_string(getpid());
+  const fs::path partial = path.parent_path() / partial_name;
+  const TempFiles temp{{description, log, partial}};
+  {
+    std::ofstream out(description);
+    out << describe(panels).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+    if (!out) throw Error("cannot write the plot description", {.file = description.string()});
   }
-  bool ok = false;
-  try {
-    ok = cv::imwrite(path.string(), canvas);
-  } catch (const cv::Exception& e) {
-    throw Error(std::string("cannot write plot: ") + e.err, {.file = path.string()});
+  const int status = run_logged({python, script.string(), description.string(), partial.string(),
+                                 "--format", format_of(path)},
+                                log);
+  if (status == kMatplotlibMissing)
+    throw Error(
+        "matplotlib is missing: install the Debian package python3-matplotlib "
+        "(scripts/install_deps.sh does this): " +
+            read_text(log),
+        {.file = path.string()});
+  if (status != 0) {
+    std::ostringstream message;
+    message << "the plot script failed (" << script.string() << ", exit " << status
+            << "): " << read_text(log);
+    throw Error(message.str(), {.file = path.string()});
   }
-  if (!ok) throw Error("cannot write plot", {.file = path.string()});
+  std::error_code ec;
+  fs::rename(partial, path, ec);
+  if (ec)
+    throw Error("cannot rename the finished plot into place: " + ec.message(),
+                {.file = path.string()});
 }
 
 }  // namespace coloc::cli

@@ -1,5 +1,7 @@
 #pragma once
-// Small PNG plots for the CLI (OpenCV drawing): line series in a panel with axes and a legend.
+// Plots for the CLI, drawn by matplotlib (Agg backend, headless): the verb describes panels of
+// line series here, write_plot() hands that description as JSON to Examples/coloc/plot.py
+// (run with the python3 found at configure time) and renames the finished file into place.
 
 #include <Eigen/Core>
 #include <filesystem>
@@ -9,9 +11,9 @@
 namespace coloc::cli {
 
 struct Series {
-  std::string label;
-  std::vector<Eigen::Vector2d> points;
-  Eigen::Vector3i bgr{0, 0, 0};
+  std::string label;                    // legend entry
+  std::vector<Eigen::Vector2d> points;  // (x, y) in the panel's units, drawn as one line
+  std::string colour;                   // matplotlib colour ("tab:blue", "#3c3c3c"); empty: cycle
 };
 
 struct Panel {
@@ -22,7 +24,15 @@ struct Panel {
   std::vector<Series> series;
 };
 
-// Draws the panels side by side into one PNG. Throws coloc::Error when it cannot be written.
+// Throws coloc::Error naming `path` unless a plot can be written there: a .png/.pdf/.svg name
+// in an existing, writable folder, and not a folder or an unwritable file itself. Verbs call it
+// before their work so a typo does not cost a long run.
+void check_plot_path(const std::filesystem::path& path);
+
+// Draws the panels side by side into one image at `path` (format from the extension). The file
+// is written under a temporary name and renamed when complete, so `path` never holds half a
+// plot. Throws coloc::Error when python3 or matplotlib is missing or the script fails (with
+// its message).
 void write_plot(const std::filesystem::path& path, const std::vector<Panel>& panels);
 
 }  // namespace coloc::cli

@@ -1,25 +1,13 @@
 #include "Examples/coloc/slam_inputs.hpp"
 
-#include <cstdlib>
-
+#include "Examples/coloc/cli_common.hpp"
 #include "slam/core/error.hpp"
-
-#ifndef COLOC_SOURCE_DIR
-#define COLOC_SOURCE_DIR "."
-#endif
 
 namespace coloc::cli {
 
 namespace fs = std::filesystem;
 
 namespace {
-
-// The repository (for the shipped vocabulary and camera files): $COLOC_SOURCE_DIR, else the
-// source tree this binary was built from.
-fs::path source_dir() {
-  if (const char* env = std::getenv("COLOC_SOURCE_DIR"); env != nullptr && *env != '\0') return env;
-  return COLOC_SOURCE_DIR;
-}
 
 // The shipped camera file for the sequence's format.
 fs::path default_config(const dataset::Sequence& sequence) {

@@ -31,10 +31,6 @@ struct DemoArgs {
   bool skip_twin = false;
 };
 
-std::filesystem::path source_dir() {
-  return COLOC_SOURCE_DIR;
-}
-
 // Runs `coloc ARGS...` (this very executable) and waits; throws CliFailure when it fails.
 void run_verb(const std::vector<std::string>& args) {
   std::string shown = "coloc";
@@ -56,12 +52,6 @@ void run_verb(const std::vector<std::string>& args) {
   if (waitpid(pid, &status, 0) < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
     throw CliFailure("step failed: " + shown);
   }
-}
-
-std::filesystem::path default_data_dir() {
-  if (const char* env = std::getenv("COLOC_DATA"); env != nullptr && *env != '\0') return env;
-  // ../shared/data next to the repository this binary was built from.
-  return std::filesystem::path(COLOC_SOURCE_DIR).parent_path() / "shared" / "data";
 }
 
 void step_header(int n, const std::string& what) {

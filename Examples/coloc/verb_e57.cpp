@@ -1,14 +1,10 @@
 // coloc e57 info|verify|extract-images|to-ply FILE ..., and coloc bench e57 [FILE]: our own E57
 // reader/writer (e57io) from the command line.
 
-#include <sys/resource.h>
-
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cctype>
-#include <chrono>
 #include <cstdio>
-#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -21,6 +17,7 @@
 #include "e57io/synthetic.hpp"
 #include "e57io/writer.hpp"
 #include "slam/core/progress.hpp"
+#include "slam/core/timing.hpp"
 
 namespace coloc::cli {
 namespace {
@@ -63,13 +60,10 @@ std::string pose_text(const std::optional<e57::Pose>& p) {
   return buf;
 }
 
-std::string pose_json(const std::optional<e57::Pose>& p) {
-  if (!p) return "null";
-  return "{\"translation\": [" + json_number(p->translation.x) + ", " +
-         json_number(p->translation.y) + ", " + json_number(p->translation.z) +
-         "], \"rotation_wxyz\": [" + json_number(p->rotation.w) + ", " +
-         json_number(p->rotation.x) + ", " + json_number(p->rotation.y) + ", " +
-         json_number(p->rotation.z) + "]}";
+Json pose_json(const std::optional<e57::Pose>& p) {
+  if (!p) return nullptr;
+  return {{"translation", {p->translation.x, p->translation.y, p->translation.z}},
+          {"rotation_wxyz", {p->rotation.w, p->rotation.x, p->rotation.y, p->rotation.z}}};
 }
 
 void print_info_text(const e57::Reader& r) {
@@ -104,49 +98,49 @@ void print_info_text(const e57::Reader& r) {
   }
 }
 
+Json scan_json(const e57::Data3D& s) {
+  Json fields = Json::array();
+  for (const auto& f : s.prototype)
+    fields.push_back({{"name", f.name}, {"type", kind_name(f.spec.kind)}});
+  Json bounds = nullptr;
+  if (const auto& b = s.cartesian_bounds)
+    bounds = {b->x_min, b->x_max, b->y_min, b->y_max, b->z_min, b->z_max};
+  return {{"name", s.name},
+          {"guid", s.guid},
+          {"points", s.point_count},
+          {"fields", fields},
+          {"pose", pose_json(s.pose)},
+          {"cartesian_bounds", bounds}};
+}
+
+Json image_json(const e57::Image2D& im) {
+  return {{"name", im.name},
+          {"representation", e57::to_string(im.representation)},
+          {"format", im.format == e57::ImageFormat::kJpeg ? "jpeg" : "png"},
+          {"width", im.width},
+          {"height", im.height},
+          {"bytes", im.image.length},
+          {"focal_length", im.focal_length},
+          {"pixel_width", im.pixel_width},
+          {"pixel_height", im.pixel_height},
+          {"principal_point", {im.principal_point_x, im.principal_point_y}},
+          {"associated_scan", im.associated_data3d_guid},
+          {"pose", pose_json(im.pose)}};
+}
+
 void print_info_json(const e57::Reader& r) {
   const e57::FileInfo& info = r.info();
-  std::ostringstream o;
-  o << "{\"file\": " << json_string(r.path().string()) << ", \"bytes\": " << info.physical_length
-    << ", \"guid\": " << json_string(info.guid)
-    << ", \"writer\": " << json_string(info.library_version) << ", \"scans\": [";
-  for (std::size_t i = 0; i < r.scans().size(); ++i) {
-    const e57::Data3D& s = r.scans()[i];
-    o << (i ? ", " : "") << "{\"name\": " << json_string(s.name)
-      << ", \"guid\": " << json_string(s.guid) << ", \"points\": " << s.point_count
-      << ", \"fields\": [";
-    for (std::size_t k = 0; k < s.prototype.size(); ++k) {
-      const auto& f = s.prototype[k];
-      o << (k ? ", " : "") << "{\"name\": " << json_string(f.name)
-        << ", \"type\": " << json_string(kind_name(f.spec.kind)) << "}";
-    }
-    o << "], \"pose\": " << pose_json(s.pose) << ", \"cartesian_bounds\": ";
-    if (const auto& b = s.cartesian_bounds) {
-      o << "[" << json_number(b->x_min) << ", " << json_number(b->x_max) << ", "
-        << json_number(b->y_min) << ", " << json_number(b->y_max) << ", " << json_number(b->z_min)
-        << ", " << json_number(b->z_max) << "]";
-    } else {
-      o << "null";
-    }
-    o << "}";
-  }
-  o << "], \"images\": [";
-  for (std::size_t i = 0; i < r.images().size(); ++i) {
-    const e57::Image2D& im = r.images()[i];
-    o << (i ? ", " : "") << "{\"name\": " << json_string(im.name)
-      << ", \"representation\": " << json_string(e57::to_string(im.representation))
-      << ", \"format\": " << json_string(im.format == e57::ImageFormat::kJpeg ? "jpeg" : "png")
-      << ", \"width\": " << im.width << ", \"height\": " << im.height
-      << ", \"bytes\": " << im.image.length
-      << ", \"focal_length\": " << json_number(im.focal_length)
-      << ", \"pixel_width\": " << json_number(im.pixel_width)
-      << ", \"pixel_height\": " << json_number(im.pixel_height) << ", \"principal_point\": ["
-      << json_number(im.principal_point_x) << ", " << json_number(im.principal_point_y) << "]"
-      << ", \"associated_scan\": " << json_string(im.associated_data3d_guid)
-      << ", \"pose\": " << pose_json(im.pose) << "}";
-  }
-  o << "]}\n";
-  std::cout << o.str();
+  Json scans = Json::array(), images = Json::array();
+  for (const e57::Data3D& s : r.scans())
+    scans.push_back(scan_json(s));
+  for (const e57::Image2D& im : r.images())
+    images.push_back(image_json(im));
+  print_json({{"file", r.path().string()},
+              {"bytes", info.physical_length},
+              {"guid", info.guid},
+              {"writer", info.library_version},
+              {"scans", scans},
+              {"images", images}});
 }
 
 std::string safe_name(const std::string& s) {
@@ -298,13 +292,6 @@ double peak_memory_mib() {
   return 0.0;
 }
 
-double cpu_seconds() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
-         1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
-
 fs::path generate_synthetic(std::size_t n) {
   const fs::path path = fs::temp_directory_path() / "coloc_bench_e57.e57";
   Progress progress("writing synthetic E57", n);
@@ -339,8 +326,10 @@ void bench_e57(const BenchArgs& a) {
     reset_peak_memory();
     const double base = peak_memory_mib();
     for (int rep = 0; rep < a.repeats; ++rep) {
-      const auto t0 = std::chrono::steady_clock::now();
-      const double c0 = cpu_seconds();
+      // The reader decodes on this thread only, so its CPU time is the read's cost without the
+      // time other processes held the core.
+      const Stopwatch wall_watch;
+      const ThreadCpuStopwatch cpu_watch;
       e57::PointStream stream = r.open_points(s, mask);
       e57::PointBuffer chunk;
       n_points = 0;
@@ -349,10 +338,8 @@ void bench_e57(const BenchArgs& a) {
         n_points += n;
         if (chunk.present(PointField::kCartesianX)) checksum += chunk.cartesian_x[n - 1];
       }
-      const double wall =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      best_wall = std::min(best_wall, wall);
-      best_cpu = std::min(best_cpu, cpu_seconds() - c0);
+      best_wall = std::min(best_wall, wall_watch.elapsed_seconds());
+      best_cpu = std::min(best_cpu, cpu_watch.elapsed_seconds());
       if (checksum == 12345.678) std::printf(" ");  // keeps the loop observable
     }
     std::printf(

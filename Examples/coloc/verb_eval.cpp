@@ -1,8 +1,6 @@
 // coloc eval ate|rpe GT EST: trajectory accuracy as the TUM tools and evo compute it.
 
 #include <cstdio>
-#include <iostream>
-#include <sstream>
 
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/plot.hpp"
@@ -39,13 +37,9 @@ void add_common(CLI::App& cmd, EvalArgs& a, const std::string& default_align) {
   cmd.add_option("--plot", a.plot, "Write a PNG: top view of both trajectories, error over time");
 }
 
-std::string stats_json(const eval::ErrorStats& s) {
-  std::ostringstream o;
-  o << "{\"count\": " << s.count << ", \"rmse\": " << json_number(s.rmse)
-    << ", \"mean\": " << json_number(s.mean) << ", \"median\": " << json_number(s.median)
-    << ", \"std\": " << json_number(s.std) << ", \"min\": " << json_number(s.min)
-    << ", \"max\": " << json_number(s.max) << "}";
-  return o.str();
+Json stats_json(const eval::ErrorStats& s) {
+  return {{"count", s.count}, {"rmse", s.rmse}, {"mean", s.mean}, {"median", s.median},
+          {"std", s.std},     {"min", s.min},   {"max", s.max}};
 }
 
 void print_stats(const char* what, const char* unit, const eval::ErrorStats& s) {
@@ -73,8 +67,8 @@ std::pair<int, int> view_axes(const Trajectory& gt) {
 }
 
 Series path_series(const std::string& label, const Trajectory& t, std::pair<int, int> axes,
-                   Eigen::Vector3i bgr) {
-  Series s{label, {}, bgr};
+                   const std::string& colour) {
+  Series s{label, {}, colour};
   for (const auto& p : t) {
     const Eigen::Vector3d& x = p.world_from_cam.translation();
     s.points.emplace_back(x(axes.first), x(axes.second));
@@ -83,22 +77,24 @@ Series path_series(const std::string& label, const Trajectory& t, std::pair<int,
 }
 
 Series time_series(const std::string& label, const std::vector<double>& t,
-                   const std::vector<double>& v, Eigen::Vector3i bgr) {
-  Series s{label, {}, bgr};
+                   const std::vector<double>& v, const std::string& colour) {
+  Series s{label, {}, colour};
   for (std::size_t i = 0; i < t.size(); ++i)
     s.points.emplace_back(t[i] - t.front(), v[i]);
   return s;
 }
 
 void run_ate(const EvalArgs& a) {
+  if (!a.plot.empty()) check_plot_path(a.plot);
   const Trajectory gt = read_tum_trajectory(a.ground_truth);
   const Trajectory est = read_tum_trajectory(a.estimate);
   const eval::AteResult r =
       eval::compute_ate(gt, est, {.alignment = eval::parse_alignment(a.align), .max_dt = a.max_dt});
   if (a.json) {
-    std::cout << "{\"metric\": \"ate\", \"align\": " << json_string(a.align)
-              << ", \"scale\": " << json_number(r.gt_from_est.scale())
-              << ", \"translation_m\": " << stats_json(r.translation) << "}\n";
+    print_json({{"metric", "ate"},
+                {"align", a.align},
+                {"scale", r.gt_from_est.scale()},
+                {"translation_m", stats_json(r.translation)}});
   } else {
     print_stats("ATE translation", "m", r.translation);
     std::printf("  alignment %s, scale %.6f\n", a.align.c_str(), r.gt_from_est.scale());
@@ -110,26 +106,29 @@ void run_ate(const EvalArgs& a) {
               std::string(1, names[axes.first]) + " [m]",
               std::string(1, names[axes.second]) + " [m]",
               true,
-              {path_series("ground truth", r.ground_truth, axes, {60, 60, 60}),
-               path_series("estimate", r.estimate_aligned, axes, {40, 40, 220})}};
+              {path_series("ground truth", r.ground_truth, axes, "black"),
+               path_series("estimate", r.estimate_aligned, axes, "tab:blue")}};
     Panel err{"ATE over time",
               "t [s]",
               "error [m]",
               false,
-              {time_series("ATE", r.timestamps, r.errors, {200, 80, 20})}};
+              {time_series("ATE", r.timestamps, r.errors, "tab:red")}};
     write_plot(a.plot, {top, err});
   }
 }
 
 void run_rpe(const EvalArgs& a) {
+  if (!a.plot.empty()) check_plot_path(a.plot);
   const Trajectory gt = read_tum_trajectory(a.ground_truth);
   const Trajectory est = read_tum_trajectory(a.estimate);
   const eval::RpeResult r = eval::compute_rpe(
       gt, est, {.alignment = eval::parse_alignment(a.align), .max_dt = a.max_dt, .delta = a.delta});
   if (a.json) {
-    std::cout << "{\"metric\": \"rpe\", \"align\": " << json_string(a.align)
-              << ", \"delta\": " << a.delta << ", \"translation_m\": " << stats_json(r.translation)
-              << ", \"rotation_deg\": " << stats_json(r.rotation) << "}\n";
+    print_json({{"metric", "rpe"},
+                {"align", a.align},
+                {"delta", a.delta},
+                {"translation_m", stats_json(r.translation)},
+                {"rotation_deg", stats_json(r.rotation)}});
   } else {
     print_stats("RPE translation", "m", r.translation);
     print_stats("RPE rotation", "deg", r.rotation);
@@ -139,12 +138,12 @@ void run_rpe(const EvalArgs& a) {
             "t [s]",
             "error [m]",
             false,
-            {time_series("translation", r.timestamps, r.translation_errors, {200, 80, 20})}};
+            {time_series("translation", r.timestamps, r.translation_errors, "tab:red")}};
     Panel rot{"RPE rotation",
               "t [s]",
               "error [deg]",
               false,
-              {time_series("rotation", r.timestamps, r.rotation_errors, {40, 40, 220})}};
+              {time_series("rotation", r.timestamps, r.rotation_errors, "tab:blue")}};
     write_plot(a.plot, {t, rot});
   }
 }

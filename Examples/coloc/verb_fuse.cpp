@@ -21,15 +21,10 @@
 #include "fusion/fuser.hpp"
 #include "fusion/imu.hpp"
 #include "fusion/osc_node.hpp"
+#include "fusion/replay.hpp"
 #include "fusion/simulation.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/trajectory.hpp"
-
-// The CLI's CMakeLists defines COLOC_SOURCE_DIR; without it the shared data is looked up only
-// through $COLOC_DATA or ./shared/data.
-#ifndef COLOC_SOURCE_DIR
-#define COLOC_SOURCE_DIR "."
-#endif
 
 namespace coloc::cli {
 namespace {
@@ -77,24 +72,30 @@ fusion::FuserOptions fuser_options(const FuseArgs& a) {
   return o;
 }
 
+Json stats_json(const fusion::FuserStats& s, const fusion::OscStats* osc,
+                std::uint64_t out_of_order, std::uint64_t published) {
+  Json j = {{"xr_poses", s.xr_poses},   {"global_poses", s.global_poses},
+            {"accepted", s.accepted},   {"initialized", s.initialized},
+            {"rejected", s.rejected},   {"lost", s.lost},
+            {"unaligned", s.unaligned}, {"out_of_order", s.out_of_order}};
+  if (osc != nullptr) {
+    j["osc"] = {{"packets", osc->packets},
+                {"messages", osc->messages},
+                {"malformed", osc->malformed},
+                {"oversized", osc->oversized},
+                {"wrong_types", osc->wrong_types},
+                {"unknown_address", osc->unknown_address},
+                {"invalid_values", osc->invalid_values},
+                {"out_of_order", out_of_order},
+                {"published", published}};
+  }
+  return j;
+}
+
 void print_stats(const fusion::FuserStats& s, const fusion::OscStats* osc,
                  std::uint64_t out_of_order, std::uint64_t published, bool json) {
   if (json) {
-    std::ostringstream o;
-    o << "{\"xr_poses\": " << s.xr_poses << ", \"global_poses\": " << s.global_poses
-      << ", \"accepted\": " << s.accepted << ", \"initialized\": " << s.initialized
-      << ", \"rejected\": " << s.rejected << ", \"lost\": " << s.lost
-      << ", \"unaligned\": " << s.unaligned << ", \"out_of_order\": " << s.out_of_order;
-    if (osc != nullptr) {
-      o << ", \"osc\": {\"packets\": " << osc->packets << ", \"messages\": " << osc->messages
-        << ", \"malformed\": " << osc->malformed << ", \"oversized\": " << osc->oversized
-        << ", \"wrong_types\": " << osc->wrong_types
-        << ", \"unknown_address\": " << osc->unknown_address
-        << ", \"invalid_values\": " << osc->invalid_values << ", \"out_of_order\": " << out_of_order
-        << ", \"published\": " << published << "}";
-    }
-    o << "}";
-    std::printf("%s\n", o.str().c_str());
+    print_json(stats_json(s, osc, out_of_order, published));
     return;
   }
   std::printf(
@@ -173,52 +174,29 @@ void run_node(const FuseArgs& a) {
 // IMU mode on recorded files: an IMU log (EuRoC CSV) instead of headset poses; global poses
 // must be world_from_body (the IMU's frame). One fused pose per IMU sample once anchored.
 void run_imu_files(const FuseArgs& a) {
-  const std::vector<fusion::ImuSample> imu = fusion::read_imu_csv(a.imu_file);
-  const Trajectory global = read_tum_trajectory(a.global_file);
   fusion::ImuFuserOptions options;
   options.fuser = fuser_options(a);
-  fusion::ImuFuser fuser(options);
-  Trajectory fused;
-  std::size_t g = 0;
-  for (const fusion::ImuSample& s : imu) {
-    while (g < global.size() && global[g].timestamp + a.latency <= s.time) {
-      fuser.push_global_pose(global[g].timestamp, global[g].world_from_cam);
-      ++g;
-    }
-    const fusion::FusedPose out = fuser.push_imu(s);
-    if (fuser.anchored() && out.state != fusion::FusionState::kWaiting) {
-      fused.push_back({s.time, out.world_from_head});
-    }
-  }
-  if (!a.out_file.empty()) write_tum_trajectory(a.out_file, fused);
+  const fusion::ImuReplay r =
+      fusion::replay_imu(fusion::read_imu_csv(a.imu_file),
+                         fusion::delayed(read_tum_trajectory(a.global_file), a.latency), options);
+  if (!a.out_file.empty()) write_tum_trajectory(a.out_file, r.fused);
   if (!a.json) {
     std::printf("imu samples %llu (gaps %llu), integrator corrections %llu\n",
-                static_cast<unsigned long long>(fuser.stats().imu_samples),
-                static_cast<unsigned long long>(fuser.stats().gaps),
-                static_cast<unsigned long long>(fuser.stats().corrections));
+                static_cast<unsigned long long>(r.imu.imu_samples),
+                static_cast<unsigned long long>(r.imu.gaps),
+                static_cast<unsigned long long>(r.imu.corrections));
   }
-  print_stats(fuser.fuser().stats(), nullptr, 0, 0, a.json);
+  print_stats(r.fuser, nullptr, 0, 0, a.json);
 }
 
 // Replays recorded headset and global trajectories (TUM files, same clock) through the fuser;
 // global poses are delivered `latency` seconds after their stamp.
 void run_files(const FuseArgs& a) {
-  const Trajectory xr = read_tum_trajectory(a.xr_file);
-  const Trajectory global = read_tum_trajectory(a.global_file);
-  fusion::DriftFuser fuser(fuser_options(a));
-  Trajectory fused;
-  fused.reserve(xr.size());
-  std::size_t g = 0;
-  for (const StampedPose& h : xr) {
-    while (g < global.size() && global[g].timestamp + a.latency <= h.timestamp) {
-      fuser.push_global_pose(global[g].timestamp, global[g].world_from_cam);
-      ++g;
-    }
-    fused.push_back(
-        {h.timestamp, fuser.push_xr_pose(h.timestamp, h.world_from_cam).world_from_head});
-  }
-  if (!a.out_file.empty()) write_tum_trajectory(a.out_file, fused);
-  print_stats(fuser.stats(), nullptr, 0, 0, a.json);
+  const fusion::HeadsetReplay r = fusion::replay_headset(
+      read_tum_trajectory(a.xr_file),
+      fusion::delayed(read_tum_trajectory(a.global_file), a.latency), fuser_options(a));
+  if (!a.out_file.empty()) write_tum_trajectory(a.out_file, r.fused);
+  print_stats(r.stats, nullptr, 0, 0, a.json);
 }
 
 void add_filter_options(CLI::App& cmd, FuseArgs& a) {
@@ -255,13 +233,8 @@ struct BenchArgs {
 };
 
 std::filesystem::path default_vive_log() {
-  std::filesystem::path data;
-  if (const char* env = std::getenv("COLOC_DATA"); env != nullptr && *env != '\0') {
-    data = env;
-  } else {
-    data = std::filesystem::path(COLOC_SOURCE_DIR).parent_path() / "shared" / "data";
-  }
-  return data / "vive_tracker_vs_lasertracker/20201002_Exp1_Drift/drift20minExperiment.txt";
+  return default_data_dir() /
+         "vive_tracker_vs_lasertracker/20201002_Exp1_Drift/drift20minExperiment.txt";
 }
 
 void run_bench(BenchArgs a) {
@@ -282,23 +255,20 @@ void run_bench(BenchArgs a) {
   const SampleStats round_trip = fusion::time_osc_round_trip(a.round_trips);
 
   if (a.json) {
-    std::ostringstream o;
-    o << "{\"methods\": [";
-    for (std::size_t i = 0; i < methods.size(); ++i) {
-      const fusion::ErrorMetrics& m = methods[i].metrics;
-      o << (i ? ", " : "") << "{\"name\": " << json_string(methods[i].name)
-        << ", \"position_rmse_m\": " << json_number(m.position_rmse)
-        << ", \"position_p95_m\": " << json_number(m.position_p95)
-        << ", \"rotation_rmse_deg\": " << json_number(m.rotation_rmse / kDeg)
-        << ", \"rotation_p95_deg\": " << json_number(m.rotation_p95 / kDeg)
-        << ", \"jitter_position_p99_m\": " << json_number(m.jitter_position_p99)
-        << ", \"jitter_rotation_p99_deg\": " << json_number(m.jitter_rotation_p99 / kDeg) << "}";
+    Json rows = Json::array();
+    for (const fusion::MethodResult& method : methods) {
+      const fusion::ErrorMetrics& m = method.metrics;
+      rows.push_back({{"name", method.name},
+                      {"position_rmse_m", m.position_rmse},
+                      {"position_p95_m", m.position_p95},
+                      {"rotation_rmse_deg", m.rotation_rmse / kDeg},
+                      {"rotation_p95_deg", m.rotation_p95 / kDeg},
+                      {"jitter_position_p99_m", m.jitter_position_p99},
+                      {"jitter_rotation_p99_deg", m.jitter_rotation_p99 / kDeg}});
     }
-    o << "], \"fused_pose_us\": {\"median\": " << json_number(pose_cost.median)
-      << ", \"p99\": " << json_number(pose_cost.p99)
-      << "}, \"osc_round_trip_us\": {\"median\": " << json_number(round_trip.median)
-      << ", \"p99\": " << json_number(round_trip.p99) << "}}";
-    std::printf("%s\n", o.str().c_str());
+    print_json({{"methods", rows},
+                {"fused_pose_us", {{"median", pose_cost.median}, {"p99", pose_cost.p99}}},
+                {"osc_round_trip_us", {{"median", round_trip.median}, {"p99", round_trip.p99}}}});
     return;
   }
   const fusion::SessionOptions& s = a.session;

@@ -38,18 +38,8 @@ struct SolveArgs {
   bool unknown_scale = false, robust = false, json = false;
 };
 
-std::string matrix_json(const SE3& pose) {
-  const Eigen::Matrix4d m = pose.matrix();
-  std::ostringstream o;
-  o << "[";
-  for (int r = 0; r < 4; ++r) {
-    o << (r ? ", [" : "[");
-    for (int c = 0; c < 4; ++c)
-      o << (c ? ", " : "") << json_number(m(r, c));
-    o << "]";
-  }
-  o << "]";
-  return o.str();
+Json matrix_json(const SE3& pose) {
+  return json_rows(pose.matrix());
 }
 
 void print_pose(const char* name, const SE3& pose) {
@@ -78,25 +68,26 @@ std::vector<he::Registration> load_registrations(const SolveArgs& a) {
 
 void print_summary_json(const he::Summary& s) {
   const he::Conditioning& c = s.conditioning;
-  std::ostringstream o;
-  o << "{\"usable\": " << (s.is_solution_usable() ? "true" : "false")
-    << ", \"X\": " << matrix_json(s.device_from_marker)
-    << ", \"vr_from_camera\": " << matrix_json(s.vr_from_camera);
+  Json j = {{"usable", s.is_solution_usable()},
+            {"X", matrix_json(s.device_from_marker)},
+            {"vr_from_camera", matrix_json(s.vr_from_camera)}};
   if (s.scale_estimated) {
-    o << ", \"sigma\": " << json_number(s.sigma);
-    if (s.sigma_stddev) o << ", \"sigma_stddev\": " << json_number(*s.sigma_stddev);
+    j["sigma"] = s.sigma;
+    if (s.sigma_stddev) j["sigma_stddev"] = *s.sigma_stddev;
   }
-  o << ", \"registrations\": " << s.used.size() << ", \"used\": " << s.num_used
-    << ", \"residual_rotation_rms_deg\": " << json_number(s.residuals.rotation_rms * kDeg)
-    << ", \"residual_translation_rms_m\": " << json_number(s.residuals.translation_rms)
-    << ", \"conditioning\": {\"axis_spread_deg\": " << json_number(c.axis_spread * kDeg)
-    << ", \"translation_min_singular_value\": " << json_number(c.translation_min_singular_value)
-    << ", \"pairs_used\": " << c.pairs_used << ", \"pairs_rejected\": " << c.pairs_rejected
-    << ", \"pairs_small\": " << c.pairs_small << "}"
-    << ", \"X_rotation_stddev_deg\": " << json_number(s.rotation_stddev * kDeg)
-    << ", \"X_translation_stddev_m\": " << json_number(s.translation_stddev)
-    << ", \"message\": " << json_string(s.message) << "}";
-  std::cout << o.str() << '\n';
+  j["registrations"] = s.used.size();
+  j["used"] = s.num_used;
+  j["residual_rotation_rms_deg"] = s.residuals.rotation_rms * kDeg;
+  j["residual_translation_rms_m"] = s.residuals.translation_rms;
+  j["conditioning"] = {{"axis_spread_deg", c.axis_spread * kDeg},
+                       {"translation_min_singular_value", c.translation_min_singular_value},
+                       {"pairs_used", c.pairs_used},
+                       {"pairs_rejected", c.pairs_rejected},
+                       {"pairs_small", c.pairs_small}};
+  j["X_rotation_stddev_deg"] = s.rotation_stddev * kDeg;
+  j["X_translation_stddev_m"] = s.translation_stddev;
+  j["message"] = s.message;
+  print_json(j);
 }
 
 void print_summary_text(const he::Summary& s) {
@@ -181,8 +172,8 @@ void run_link(const std::string& a_path, const std::string& b_path, bool json) {
   const he::CalibrationFile b = he::read_calibration(b_path);
   const SE3 b_from_a = he::vr_b_from_vr_a(a.vr_from_camera, b.vr_from_camera);
   if (json) {
-    std::cout << "{\"vr_b_from_vr_a\": " << matrix_json(b_from_a)
-              << ", \"vr_a_from_vr_b\": " << matrix_json(b_from_a.inverse()) << "}\n";
+    print_json({{"vr_b_from_vr_a", matrix_json(b_from_a)},
+                {"vr_a_from_vr_b", matrix_json(b_from_a.inverse())}});
   } else {
     print_pose("T_A2B = vr_b_from_vr_a", b_from_a);
     print_pose("T_B2A = vr_a_from_vr_b", b_from_a.inverse());
@@ -209,11 +200,12 @@ void run_stability(const StabilityArgs& a) {
   const he::Dispersion d =
       he::locked_controller_stability(pa, pb, ca.vr_from_camera, cb.vr_from_camera);
   if (a.json) {
-    std::cout << "{\"poses\": " << pa.size() << ", \"mean\": " << matrix_json(d.mean)
-              << ", \"rotation_mean_abs_deg\": " << json_number(d.rotation_mean_abs * kDeg)
-              << ", \"rotation_rms_deg\": " << json_number(d.rotation_rms * kDeg)
-              << ", \"translation_mean_abs_m\": " << json_number(d.translation_mean_abs)
-              << ", \"translation_rms_m\": " << json_number(d.translation_rms) << "}\n";
+    print_json({{"poses", pa.size()},
+                {"mean", matrix_json(d.mean)},
+                {"rotation_mean_abs_deg", d.rotation_mean_abs * kDeg},
+                {"rotation_rms_deg", d.rotation_rms * kDeg},
+                {"translation_mean_abs_m", d.translation_mean_abs},
+                {"translation_rms_m", d.translation_rms}});
     return;
   }
   std::printf("%zu matched poses\n", pa.size());

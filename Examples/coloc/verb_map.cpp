@@ -102,16 +102,18 @@ void run_map(const MapArgs& args) {
   if (!args.keyframes.empty()) write_tum_trajectory(args.keyframes, r.keyframes);
   const auto& s = r.summary;
   if (args.json) {
-    std::cout << "{\"frames\": " << s.frames << ", \"tracked\": " << s.tracked
-              << ", \"lost\": " << s.lost << ", \"keyframes\": " << s.keyframes
-              << ", \"map_points\": " << s.points << ", \"relocalizations\": " << s.relocalizations
-              << ", \"markers\": " << s.mapping.markers
-              << ", \"ms_per_frame_median\": " << json_number(s.total_ms.median)
-              << ", \"ms_per_frame_p99\": " << json_number(s.total_ms.p99)
-              << ", \"ate_rmse_m\": " << (r.ate ? json_number(r.ate->translation.rmse) : "null")
-              << ", \"ate_rmse_online_m\": "
-              << (r.ate_online ? json_number(r.ate_online->translation.rmse) : "null")
-              << ", \"skipped_frames\": " << r.skipped_frames << "}\n";
+    print_json({{"frames", s.frames},
+                {"tracked", s.tracked},
+                {"lost", s.lost},
+                {"keyframes", s.keyframes},
+                {"map_points", s.points},
+                {"relocalizations", s.relocalizations},
+                {"markers", s.mapping.markers},
+                {"ms_per_frame_median", s.total_ms.median},
+                {"ms_per_frame_p99", s.total_ms.p99},
+                {"ate_rmse_m", r.ate ? Json(r.ate->translation.rmse) : Json()},
+                {"ate_rmse_online_m", r.ate_online ? Json(r.ate_online->translation.rmse) : Json()},
+                {"skipped_frames", r.skipped_frames}});
   } else {
     std::cout << s.describe() << "\n";
     if (r.skipped_frames > 0)

@@ -5,7 +5,6 @@
 #include <spdlog/spdlog.h>
 
 #include <cstdio>
-#include <ctime>
 #include <fstream>
 #include <iostream>
 #include <map>
@@ -41,15 +40,6 @@ const std::map<std::string, CornerRefinement> kRefinements{
     {"apriltag", CornerRefinement::kAprilTag},
     {"edges", CornerRefinement::kEdgeLines}};
 
-std::string matrix_json(const Eigen::Matrix4d& m) {
-  std::string s = "[";
-  for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c)
-      s += (r + c == 0 ? "" : ", ") + json_number(m(r, c));
-  }
-  return s + "]";
-}
-
 struct DetectArgs {
   std::vector<std::string> images;
   std::string dictionary;
@@ -59,6 +49,42 @@ struct DetectArgs {
   std::string camera;
   bool json = false;
 };
+
+// One detection's pose (with --camera): JSON fields added to `j`, text lines appended to `text`.
+void describe_pose(const std::optional<markers::MarkerPose>& pose, Json& j,
+                   std::ostringstream& text) {
+  if (!pose) {
+    j["camera_from_marker"] = nullptr;
+    text << "\n    no pose (degenerate corners)";
+    return;
+  }
+  const double angle_deg = pose->candidate_angle() * 180.0 / M_PI;
+  j["camera_from_marker"] = json_row_major(pose->camera_from_marker().matrix());
+  j["reprojection_error_px"] = pose->reprojection_error_px();
+  j["distance_m"] = pose->distance();
+  j["ambiguous"] = pose->ambiguous;
+  j["alternative"] = {
+      {"camera_from_marker", json_row_major(pose->alternative.camera_from_marker.matrix())},
+      {"reprojection_error_px", pose->alternative.reprojection_error_px},
+      {"angle_deg", angle_deg}};
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "\n    reprojection %.3f px, distance %.3f m",
+                pose->reprojection_error_px(), pose->distance());
+  text << buf;
+  if (pose->ambiguous) {
+    std::snprintf(buf, sizeof buf,
+                  "; AMBIGUOUS: the mirrored pose (%.1f deg away) reprojects with %.3f px",
+                  angle_deg, pose->alternative.reprojection_error_px);
+    text << buf;
+  }
+  const Eigen::Matrix4d m = pose->camera_from_marker().matrix();
+  text << "\n    camera_from_marker:";
+  for (int r = 0; r < 3; ++r) {
+    std::snprintf(buf, sizeof buf, "\n      [% .6f % .6f % .6f % .6f]", m(r, 0), m(r, 1), m(r, 2),
+                  m(r, 3));
+    text << buf;
+  }
+}
 
 void detect(const DetectArgs& a) {
   markers::DetectorOptions options;
@@ -70,72 +96,34 @@ void detect(const DetectArgs& a) {
   if (!a.camera.empty()) camera = settings::load_settings(a.camera).camera;
   const markers::PoseOptions pose_options{.marker_size = a.size};
 
-  std::ostringstream json;
-  json << "{\"dictionary\": " << json_string(a.dictionary) << ", \"images\": [";
+  Json images = Json::array();
   int total = 0;
-  for (std::size_t i = 0; i < a.images.size(); ++i) {
-    const cv::Mat image = cv::imread(a.images[i], cv::IMREAD_GRAYSCALE);
-    if (image.empty()) throw Error("cannot read image", {.file = a.images[i]});
+  for (const std::string& file : a.images) {
+    const cv::Mat image = cv::imread(file, cv::IMREAD_GRAYSCALE);
+    if (image.empty()) throw Error("cannot read image", {.file = file});
     const auto observations = detector.detect(image);
     total += static_cast<int>(observations.size());
-    json << (i ? ", " : "") << "{\"file\": " << json_string(a.images[i])
-         << ", \"width\": " << image.cols << ", \"height\": " << image.rows << ", \"markers\": [";
-    if (!a.json) std::cout << a.images[i] << ": " << observations.size() << " markers\n";
-    for (std::size_t k = 0; k < observations.size(); ++k) {
-      const auto& o = observations[k];
-      json << (k ? ", " : "") << "{\"id\": " << o.id << ", \"corners\": [";
+    if (!a.json) std::cout << file << ": " << observations.size() << " markers\n";
+    Json found = Json::array();
+    for (const auto& o : observations) {
+      Json corners = Json::array();
       std::ostringstream text;
       text << "  id " << o.id << ": corners";
       for (int c = 0; c < 4; ++c) {
-        json << (c ? ", " : "") << "[" << json_number(o.corners[c].x()) << ", "
-             << json_number(o.corners[c].y()) << "]";
+        corners.push_back({o.corners[c].x(), o.corners[c].y()});
         char buf[64];
         std::snprintf(buf, sizeof buf, " (%.2f, %.2f)", o.corners[c].x(), o.corners[c].y());
         text << buf;
       }
-      json << "]";
-      if (camera) {
-        const auto pose = markers::estimate_marker_pose(*camera, o, pose_options);
-        if (pose) {
-          json << ", \"camera_from_marker\": " << matrix_json(pose->camera_from_marker().matrix())
-               << ", \"reprojection_error_px\": " << json_number(pose->reprojection_error_px())
-               << ", \"distance_m\": " << json_number(pose->distance())
-               << ", \"ambiguous\": " << (pose->ambiguous ? "true" : "false")
-               << ", \"alternative\": {\"camera_from_marker\": "
-               << matrix_json(pose->alternative.camera_from_marker.matrix())
-               << ", \"reprojection_error_px\": "
-               << json_number(pose->alternative.reprojection_error_px)
-               << ", \"angle_deg\": " << json_number(pose->candidate_angle() * 180.0 / M_PI) << "}";
-          char buf[200];
-          std::snprintf(buf, sizeof buf, "\n    reprojection %.3f px, distance %.3f m",
-                        pose->reprojection_error_px(), pose->distance());
-          text << buf;
-          if (pose->ambiguous) {
-            std::snprintf(buf, sizeof buf,
-                          "; AMBIGUOUS: the mirrored pose (%.1f deg away) reprojects with %.3f px",
-                          pose->candidate_angle() * 180.0 / M_PI,
-                          pose->alternative.reprojection_error_px);
-            text << buf;
-          }
-          const Eigen::Matrix4d m = pose->camera_from_marker().matrix();
-          text << "\n    camera_from_marker:";
-          for (int r = 0; r < 3; ++r) {
-            std::snprintf(buf, sizeof buf, "\n      [% .6f % .6f % .6f % .6f]", m(r, 0), m(r, 1),
-                          m(r, 2), m(r, 3));
-            text << buf;
-          }
-        } else {
-          json << ", \"camera_from_marker\": null";
-          text << "\n    no pose (degenerate corners)";
-        }
-      }
-      json << "}";
+      Json j = {{"id", o.id}, {"corners", corners}};
+      if (camera) describe_pose(markers::estimate_marker_pose(*camera, o, pose_options), j, text);
+      found.push_back(std::move(j));
       if (!a.json) std::cout << text.str() << "\n";
     }
-    json << "]}";
+    images.push_back(
+        {{"file", file}, {"width", image.cols}, {"height", image.rows}, {"markers", found}});
   }
-  json << "]}";
-  if (a.json) std::cout << json.str() << "\n";
+  if (a.json) print_json({{"dictionary", a.dictionary}, {"images", images}});
   if (total == 0) spdlog::warn("no markers of {} found", a.dictionary);
 }
 
@@ -207,18 +195,14 @@ void scan_markers_verb(const ScanArgs& a) {
 void report_scan(const ScanArgs& a, const markers::ScanMarkersResult& r) {
   std::map<int, std::array<Eigen::Vector3d, 4>> truth;
   if (!a.truth.empty()) truth = read_truth(a.truth);
-  std::ostringstream json;
-  json << "{\"out\": " << json_string(a.out) << ", \"images_searched\": " << r.images_searched
-       << ", \"faces_searched\": " << r.faces_searched << ", \"sightings\": " << r.sightings.size()
-       << ", \"rejected\": " << r.rejected.size() << ", \"markers\": [";
+  Json found = Json::array();
   double sum = 0.0, worst = 0.0;
   int corners = 0, missing = 0;
-  bool first = true;
   for (const auto& [id, m] : r.map.markers) {
-    json << (first ? "" : ", ") << "{\"id\": " << id << ", \"sightings\": " << m.sightings
-         << ", \"rejected_sightings\": " << m.rejected_sightings
-         << ", \"residual_m\": " << json_number(m.residual);
-    first = false;
+    Json j = {{"id", id},
+              {"sightings", m.sightings},
+              {"rejected_sightings", m.rejected_sightings},
+              {"residual_m", m.residual}};
     char buf[200];
     std::snprintf(buf, sizeof buf,
                   "marker %3d: %d sightings (%d dropped, %d ambiguous), residual %.2f mm", id,
@@ -235,18 +219,24 @@ void report_scan(const ScanArgs& a, const markers::ScanMarkersResult& r) {
       }
       std::snprintf(buf, sizeof buf, ", corner error max %.2f mm", 1e3 * marker_max);
       line += buf;
-      json << ", \"corner_error_max_m\": " << json_number(marker_max);
+      j["corner_error_max_m"] = marker_max;
     }
-    json << "}";
+    found.push_back(std::move(j));
     if (!a.json) std::cout << line << "\n";
   }
-  json << "]";
   for (const auto& [id, c] : truth)
     missing += r.map.markers.count(id) == 0 ? 1 : 0;
+  Json summary = {{"out", a.out},
+                  {"images_searched", r.images_searched},
+                  {"faces_searched", r.faces_searched},
+                  {"sightings", r.sightings.size()},
+                  {"rejected", r.rejected.size()},
+                  {"markers", found}};
   if (!truth.empty()) {
-    json << ", \"truth\": {\"corners\": " << corners
-         << ", \"mean_m\": " << json_number(corners ? sum / corners : 0.0)
-         << ", \"max_m\": " << json_number(worst) << ", \"markers_missing\": " << missing << "}";
+    summary["truth"] = {{"corners", corners},
+                        {"mean_m", corners ? sum / corners : 0.0},
+                        {"max_m", worst},
+                        {"markers_missing", missing}};
     if (!a.json) {
       std::printf(
           "ground truth: %d corners of %zu markers, error mean %.2f mm, max %.2f mm; %d of %zu "
@@ -255,9 +245,8 @@ void report_scan(const ScanArgs& a, const markers::ScanMarkersResult& r) {
           truth.size());
     }
   }
-  json << "}";
   if (a.json) {
-    std::cout << json.str() << "\n";
+    print_json(summary);
   } else {
     std::cout << "wrote " << r.map.markers.size() << " markers to " << a.out << "\n";
   }
@@ -285,13 +274,6 @@ cv::Mat bench_frame(const PinholeCamera& camera, const cv::aruco::Dictionary& di
   }
   cv::GaussianBlur(image, image, cv::Size(0, 0), 0.7);
   return image;
-}
-
-// CPU time of the calling thread: on a shared machine wall time also counts other jobs.
-double thread_cpu_ms() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
 }
 
 void bench_markers(const BenchArgs& a) {
@@ -331,11 +313,12 @@ void bench_markers(const BenchArgs& a) {
     std::size_t found = 0;
     for (int i = 0; i < c.frames; ++i) {
       const cv::Mat& frame = frames[static_cast<std::size_t>(i) % frames.size()];
-      const double cpu0 = thread_cpu_ms();
+      // Thread CPU time too: on a shared machine wall time also counts other jobs.
+      const ThreadCpuStopwatch cpu_watch;
       const Stopwatch watch;
       found += detector.detect(frame).size();
       ms.push_back(watch.elapsed_ms());
-      cpu_ms.push_back(thread_cpu_ms() - cpu0);
+      cpu_ms.push_back(cpu_watch.elapsed_ms());
     }
     const SampleStats s = summarize(ms);
     const SampleStats cpu = summarize(cpu_ms);

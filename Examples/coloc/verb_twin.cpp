@@ -2,8 +2,6 @@
 // the OSMesa renderer (registration/render).
 
 #include <cstdio>
-#include <iostream>
-#include <sstream>
 
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/verbs.hpp"
@@ -48,19 +46,22 @@ void run_generate(const TwinArgs& a) {
   if (a.point_step > 0) o.scan.point_step = a.point_step;
   const twin::GenerateSummary s = twin::generate_twin(o, a.out);
   if (a.json) {
-    std::ostringstream j;
-    j << "{\"preset\": " << json_string(a.preset) << ", \"seed\": " << a.seed
-      << ", \"out\": " << json_string(a.out) << ", \"frames\": " << s.frames
-      << ", \"imu_samples\": " << s.imu_samples << ", \"headset_poses\": " << s.headset_poses
-      << ", \"stations\": " << s.stations << ", \"scan_points\": " << s.scan_points
-      << ", \"markers\": " << s.markers << ", \"triangles\": " << s.triangles
-      << ", \"path_length_m\": " << json_number(s.path_length)
-      << ", \"seconds_scene\": " << json_number(s.seconds_scene)
-      << ", \"seconds_sequence\": " << json_number(s.seconds_sequence)
-      << ", \"seconds_scan\": " << json_number(s.seconds_scan)
-      << ", \"seconds_total\": " << json_number(s.seconds_total)
-      << ", \"render_ms_per_frame\": " << json_number(s.render_ms_per_frame) << "}";
-    std::cout << j.str() << '\n';
+    print_json({{"preset", a.preset},
+                {"seed", a.seed},
+                {"out", a.out},
+                {"frames", s.frames},
+                {"imu_samples", s.imu_samples},
+                {"headset_poses", s.headset_poses},
+                {"stations", s.stations},
+                {"scan_points", s.scan_points},
+                {"markers", s.markers},
+                {"triangles", s.triangles},
+                {"path_length_m", s.path_length},
+                {"seconds_scene", s.seconds_scene},
+                {"seconds_sequence", s.seconds_sequence},
+                {"seconds_scan", s.seconds_scan},
+                {"seconds_total", s.seconds_total},
+                {"render_ms_per_frame", s.render_ms_per_frame}});
     return;
   }
   std::printf("twin '%s' seed %llu -> %s\n", a.preset.c_str(),

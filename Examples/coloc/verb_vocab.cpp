@@ -1,29 +1,24 @@
 // coloc vocab train|info: our bag-of-words vocabulary from image folders, and what a file holds.
 // coloc bench orb|bow: ORB extraction speed and coverage against cv::ORB; place recognition
-// recall on 7-Scenes.
+// recall on 7-Scenes (slam/bow/place_recall.hpp).
 
 #include <spdlog/spdlog.h>
 
-#include <algorithm>
-#include <cctype>
 #include <cstdio>
-#include <cstdlib>
-#include <ctime>
 #include <filesystem>
-#include <fstream>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/features2d.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <sstream>
+#include <opencv2/imgproc.hpp>
 
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/verbs.hpp"
-#include "slam/bow/database.hpp"
+#include "slam/bow/place_recall.hpp"
 #include "slam/bow/vocabulary.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/progress.hpp"
-#include "slam/core/se3.hpp"
 #include "slam/core/timing.hpp"
+#include "slam/dataset/image_folder.hpp"
+#include "slam/dataset/sequence.hpp"
 #include "slam/features/orb_extractor.hpp"
 
 namespace coloc::cli {
@@ -33,38 +28,13 @@ namespace fs = std::filesystem;
 using slam::features::OrbExtractor;
 using slam::features::OrbFeatures;
 
-fs::path default_data_dir() {
-  if (const char* env = std::getenv("COLOC_DATA"); env != nullptr && *env != '\0') return env;
-  return "../shared/data";
-}
-
-std::string lower(std::string s) {
-  std::transform(s.begin(), s.end(), s.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return s;
-}
-
-// Colour/grey frames under `dir` (recursively), sorted by path: .png/.jpg/.jpeg files, except
-// depth images (a path component or file name containing "depth", as TUM's depth/, 7-Scenes'
-// *.depth.png and RealSense's depths/ are named).
-std::vector<fs::path> find_images(const fs::path& dir) {
-  std::vector<fs::path> images;
-  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
-    if (!entry.is_regular_file()) continue;
-    const std::string ext = lower(entry.path().extension().string());
-    if (ext != ".png" && ext != ".jpg" && ext != ".jpeg") continue;
-    const std::string relative = lower(fs::relative(entry.path(), dir).string());
-    if (relative.find("depth") != std::string::npos) continue;
-    images.push_back(entry.path());
-  }
-  std::sort(images.begin(), images.end());
-  return images;
-}
-
-cv::Mat read_grey(const fs::path& path) {
-  cv::Mat image = cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
-  if (image.empty()) throw Error("cannot read image", {.file = path.string()});
-  return image;
+// A sequence's colour image as the extractors take it (8-bit grey).
+cv::Mat grey_frame(const dataset::Sequence& sequence, std::size_t index) {
+  const cv::Mat colour = sequence.frame(index).color;
+  if (colour.channels() == 1) return colour;
+  cv::Mat grey;
+  cv::cvtColor(colour, grey, cv::COLOR_BGR2GRAY);
+  return grey;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -79,21 +49,24 @@ struct TrainArgs {
   bool quiet = false;
 };
 
+// The training images of every folder (every stride-th), with what was found and used.
+std::vector<fs::path> training_images(const TrainArgs& a) {
+  std::vector<fs::path> images;
+  for (const std::string& dir : a.dirs) {
+    const std::vector<fs::path> found = dataset::find_colour_images(dir);
+    const std::vector<fs::path> used =
+        dataset::every_nth(found, static_cast<std::size_t>(a.stride));
+    images.insert(images.end(), used.begin(), used.end());
+    std::printf("%-60s %5zu images, %5zu used\n", dir.c_str(), found.size(), used.size());
+  }
+  if (images.empty()) throw Error("no images found in the given folders", {.field = "DIR"});
+  return images;
+}
+
 void run_train(const TrainArgs& a) {
   a.vocabulary.check();
   if (a.stride < 1) throw Error("--stride must be at least 1", {.field = "stride"});
-  std::vector<fs::path> images;
-  for (const std::string& dir : a.dirs) {
-    const std::vector<fs::path> found = find_images(dir);
-    std::size_t used = 0;
-    for (std::size_t i = 0; i < found.size(); i += static_cast<std::size_t>(a.stride)) {
-      images.push_back(found[i]);
-      ++used;
-    }
-    std::printf("%-60s %5zu images, %5zu used\n", dir.c_str(), found.size(), used);
-  }
-  if (images.empty()) throw Error("no images found in the given folders", {.field = "DIR"});
-
+  const std::vector<fs::path> images = training_images(a);
   OrbExtractor extractor({.n_features = a.n_features});
   std::vector<std::vector<slam::features::Descriptor>> descriptors;
   descriptors.reserve(images.size());
@@ -101,7 +74,7 @@ void run_train(const TrainArgs& a) {
   {
     Progress progress("extract ORB", images.size(), a.quiet);
     for (const fs::path& path : images) {
-      descriptors.push_back(extractor.extract(read_grey(path)).descriptors);
+      descriptors.push_back(extractor.extract(dataset::read_image(path, true)).descriptors);
       total += descriptors.back().size();
       progress.advance();
     }
@@ -130,14 +103,16 @@ void run_info(const std::string& file, bool json) {
   const double load_ms = watch.elapsed_ms();
   const auto& i = vocabulary.info();
   if (json) {
-    std::printf(
-        "{\"file\": %s, \"bytes\": %llu, \"branching\": %d, \"depth\": %d, \"nodes\": %u, "
-        "\"words\": %u, \"training_images\": %u, \"training_descriptors\": %llu, \"seed\": %llu, "
-        "\"load_ms\": %s}\n",
-        json_string(file).c_str(), static_cast<unsigned long long>(fs::file_size(file)),
-        i.branching, i.depth, i.node_count, i.word_count, i.training_images,
-        static_cast<unsigned long long>(i.training_descriptors),
-        static_cast<unsigned long long>(i.seed), json_number(load_ms).c_str());
+    print_json({{"file", file},
+                {"bytes", fs::file_size(file)},
+                {"branching", i.branching},
+                {"depth", i.depth},
+                {"nodes", i.node_count},
+                {"words", i.word_count},
+                {"training_images", i.training_images},
+                {"training_descriptors", i.training_descriptors},
+                {"seed", i.seed},
+                {"load_ms", load_ms}});
     return;
   }
   std::printf("file                  %s (%llu bytes)\n", file.c_str(),
@@ -160,109 +135,96 @@ struct BenchOrbArgs {
   bool json = false;
 };
 
-// CPU time of the calling thread (ms). On a shared machine wall time also counts the time other
-// processes held the core; both extractors run on this thread only (cv::setNumThreads(1)).
-double thread_cpu_ms() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
-}
-
-std::vector<fs::path> every_nth(const std::vector<fs::path>& v, std::size_t n) {
-  std::vector<fs::path> out;
-  for (std::size_t i = 0; i < v.size(); i += n)
-    out.push_back(v[i]);
-  return out;
-}
-
-// 640x480 frames of TUM fr1 (xyz, every 4th of rpy) and every 10th of 7-Scenes.
-std::vector<fs::path> bench_orb_images(const fs::path& data) {
-  std::vector<fs::path> images;
-  for (const auto& [dir, step] : {std::pair<const char*, std::size_t>{"tum_fr1_xyz_37f/rgb", 1},
-                                  {"tum_fr1_rpy_180f/rgb", 4},
-                                  {"sevenscenes_600f", 10}}) {
-    if (!fs::is_directory(data / dir)) {
-      spdlog::warn("bench orb: {} not found, skipped", (data / dir).string());
+// 640x480 grey frames of TUM fr1 (xyz, every 4th of rpy) and every 10th of 7-Scenes.
+std::vector<cv::Mat> bench_orb_images(const fs::path& data) {
+  std::vector<cv::Mat> images;
+  for (const auto& [name, step] : {std::pair<const char*, std::size_t>{"tum_fr1_xyz_37f", 1},
+                                   {"tum_fr1_rpy_180f", 4},
+                                   {"sevenscenes_600f", 10}}) {
+    if (!fs::is_directory(data / name)) {
+      spdlog::warn("bench orb: {} not found, skipped", (data / name).string());
       continue;
     }
-    const auto found = every_nth(find_images(data / dir), step);
-    images.insert(images.end(), found.begin(), found.end());
+    const auto sequence = dataset::open_sequence(data / name);
+    for (std::size_t i = 0; i < sequence->size(); i += step) {
+      cv::Mat grey = grey_frame(*sequence, i);
+      if (grey.cols == 640 && grey.rows == 480) images.push_back(std::move(grey));
+    }
   }
   if (images.empty()) throw Error("no TUM or 7-Scenes images found", {.file = data.string()});
   return images;
 }
 
-void run_bench_orb(const BenchOrbArgs& a) {
-  const std::vector<fs::path> images = bench_orb_images(a.data);
+// Per-image samples of one extractor: wall and thread-CPU ms per run, coverage, feature count.
+struct OrbSamples {
+  std::vector<double> ms, cpu_ms, coverage, count;
 
+  Json json() const {
+    const SampleStats wall = summarize(ms), cpu = summarize(cpu_ms);
+    return {{"median_ms", wall.median},
+            {"p99_ms", wall.p99},
+            {"cpu_median_ms", cpu.median},
+            {"cpu_p99_ms", cpu.p99},
+            {"coverage", summarize(coverage).mean},
+            {"features", summarize(count).mean}};
+  }
+  void print_row(const char* name) const {
+    const SampleStats wall = summarize(ms), cpu = summarize(cpu_ms);
+    std::printf("%-10s %10.2f %10.2f %10.2f %10.2f %10.0f %16.3f\n", name, wall.median, wall.p99,
+                cpu.median, cpu.p99, summarize(count).mean, summarize(coverage).mean);
+  }
+};
+
+// Times `extract` `repeat` times on `image` (wall and CPU time of this one thread: on a shared
+// machine wall time also counts the time other processes held the core).
+template <typename Extract>
+void time_extractor(OrbSamples& samples, int repeat, Extract&& extract) {
+  for (int r = 0; r < repeat; ++r) {
+    const Stopwatch wall;
+    const ThreadCpuStopwatch cpu;
+    extract();
+    samples.ms.push_back(wall.elapsed_ms());
+    samples.cpu_ms.push_back(cpu.elapsed_ms());
+  }
+}
+
+void run_bench_orb(const BenchOrbArgs& a) {
+  const std::vector<cv::Mat> images = bench_orb_images(a.data);
   // One core for both, so the comparison is the algorithm's, not OpenCV's thread pool.
   cv::setNumThreads(1);
   OrbExtractor ours;
   auto theirs = cv::ORB::create(1000, 1.2f, 8, 31, 0, 2, cv::ORB::HARRIS_SCORE, 31, 20);
-  std::vector<double> ours_ms;
-  std::vector<double> theirs_ms;
-  std::vector<double> ours_cpu_ms;
-  std::vector<double> theirs_cpu_ms;
-  std::vector<double> ours_coverage;
-  std::vector<double> theirs_coverage;
-  std::vector<double> ours_count;
-  std::vector<double> theirs_count;
-  for (const fs::path& path : images) {
-    const cv::Mat image = read_grey(path);
-    if (image.cols != 640 || image.rows != 480) continue;
+  OrbSamples o, t;
+  for (const cv::Mat& image : images) {
     OrbFeatures f;
     std::vector<cv::KeyPoint> keypoints;
     cv::Mat descriptors;
-    for (int r = 0; r < a.repeat; ++r) {
-      Stopwatch w;
-      double cpu = thread_cpu_ms();
-      f = ours.extract(image);
-      ours_ms.push_back(w.elapsed_ms());
-      ours_cpu_ms.push_back(thread_cpu_ms() - cpu);
-      w.restart();
-      cpu = thread_cpu_ms();
-      theirs->detectAndCompute(image, cv::noArray(), keypoints, descriptors);
-      theirs_ms.push_back(w.elapsed_ms());
-      theirs_cpu_ms.push_back(thread_cpu_ms() - cpu);
-    }
+    time_extractor(o, a.repeat, [&] { f = ours.extract(image); });
+    time_extractor(t, a.repeat,
+                   [&] { theirs->detectAndCompute(image, cv::noArray(), keypoints, descriptors); });
     std::vector<slam::features::Keypoint> converted;
     for (const auto& k : keypoints)
       converted.push_back({.x = k.pt.x, .y = k.pt.y});
-    ours_coverage.push_back(slam::features::grid_coverage(f.keypoints, 640, 480));
-    theirs_coverage.push_back(slam::features::grid_coverage(converted, 640, 480));
-    ours_count.push_back(static_cast<double>(f.size()));
-    theirs_count.push_back(static_cast<double>(keypoints.size()));
+    o.coverage.push_back(slam::features::grid_coverage(f.keypoints, 640, 480));
+    t.coverage.push_back(slam::features::grid_coverage(converted, 640, 480));
+    o.count.push_back(static_cast<double>(f.size()));
+    t.count.push_back(static_cast<double>(keypoints.size()));
   }
-  const SampleStats o = summarize(ours_ms);
-  const SampleStats t = summarize(theirs_ms);
-  const SampleStats oc_ms = summarize(ours_cpu_ms);
-  const SampleStats tc_ms = summarize(theirs_cpu_ms);
-  const double oc = summarize(ours_coverage).mean;
-  const double tc = summarize(theirs_coverage).mean;
   if (a.json) {
-    std::printf(
-        "{\"images\": %zu, \"repeat\": %d, \"ours\": {\"median_ms\": %s, \"p99_ms\": %s, "
-        "\"cpu_median_ms\": %s, \"cpu_p99_ms\": %s, \"coverage\": %s, \"features\": %s}, "
-        "\"opencv\": {\"median_ms\": %s, \"p99_ms\": %s, \"cpu_median_ms\": %s, "
-        "\"cpu_p99_ms\": %s, \"coverage\": %s, \"features\": %s}}\n",
-        ours_coverage.size(), a.repeat, json_number(o.median).c_str(), json_number(o.p99).c_str(),
-        json_number(oc_ms.median).c_str(), json_number(oc_ms.p99).c_str(), json_number(oc).c_str(),
-        json_number(summarize(ours_count).mean).c_str(), json_number(t.median).c_str(),
-        json_number(t.p99).c_str(), json_number(tc_ms.median).c_str(),
-        json_number(tc_ms.p99).c_str(), json_number(tc).c_str(),
-        json_number(summarize(theirs_count).mean).c_str());
+    print_json({{"images", images.size()},
+                {"repeat", a.repeat},
+                {"ours", o.json()},
+                {"opencv", t.json()}});
     return;
   }
   std::printf(
       "ORB, 1000 features, 8 levels, scale 1.2, one thread; %zu images 640x480 "
       "(TUM fr1 xyz/rpy, 7-Scenes) x %d runs\n",
-      ours_coverage.size(), a.repeat);
+      images.size(), a.repeat);
   std::printf("%-10s %10s %10s %10s %10s %10s %16s\n", "", "median ms", "p99 ms", "cpu median",
               "cpu p99", "features", "coverage 16x12");
-  std::printf("%-10s %10.2f %10.2f %10.2f %10.2f %10.0f %16.3f\n", "coloc", o.median, o.p99,
-              oc_ms.median, oc_ms.p99, summarize(ours_count).mean, oc);
-  std::printf("%-10s %10.2f %10.2f %10.2f %10.2f %10.0f %16.3f\n", "cv::ORB", t.median, t.p99,
-              tc_ms.median, tc_ms.p99, summarize(theirs_count).mean, tc);
+  o.print_row("coloc");
+  t.print_row("cv::ORB");
   std::printf(
       "(ms: wall time; cpu: CPU time of the one thread, which excludes time other "
       "processes held the core)\n");
@@ -274,133 +236,62 @@ void run_bench_orb(const BenchOrbArgs& a) {
 struct BenchBowArgs {
   std::string data = default_data_dir().string();
   std::string vocabulary = "Vocabulary/coloc_orb_k10_L5.cvoc";
-  int query_step = 10;
-  int exclude = 15;
-  double max_distance = 0.3;
-  double max_angle_deg = 20.0;
+  slam::bow::PlaceRecallOptions recall;
   bool json = false;
 };
 
-// 7-Scenes frame-NNNNNN.pose.txt: a 4x4 camera-to-world matrix, row-major.
-SE3 read_seven_scenes_pose(const fs::path& path) {
-  std::ifstream in(path);
-  Eigen::Matrix4d m;
-  for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c) {
-      if (!(in >> m(r, c))) throw Error("malformed 4x4 pose", {.file = path.string()});
-    }
-  }
-  return SE3::from_matrix(m);
-}
-
-std::vector<fs::path> seven_scenes_frames(const fs::path& dir) {
-  std::vector<fs::path> frames;
-  for (const fs::path& p : find_images(dir)) {
-    if (p.filename().string().find(".color.") != std::string::npos) frames.push_back(p);
-  }
-  if (frames.empty()) throw Error("no 7-Scenes colour frames found", {.file = dir.string()});
-  return frames;
-}
-
-struct BowRecall {
-  std::size_t frames;
-  std::uint32_t words;
-  double load_ms;
-  std::size_t queries;
-  std::size_t answerable;  // queries with a true match in their database
-  std::size_t database;
-  std::size_t hit1;
-  std::size_t hit5;
-  double query_median_ms;
-};
-
-void print_bow_recall(const BenchBowArgs& a, const BowRecall& b) {
-  const double r1 = static_cast<double>(b.hit1) / static_cast<double>(b.queries);
-  const double r5 = static_cast<double>(b.hit5) / static_cast<double>(b.queries);
+void print_bow_recall(const BenchBowArgs& a, std::size_t frames, std::uint32_t words,
+                      double load_ms, const slam::bow::PlaceRecallResult& b) {
+  const double query_median_ms = summarize(b.query_ms).median;
   if (a.json) {
-    std::printf(
-        "{\"queries\": %zu, \"answerable\": %zu, \"database\": %zu, \"recall_at_1\": %s, "
-        "\"recall_at_5\": %s, \"query_median_ms\": %s, \"vocabulary_load_ms\": %s}\n",
-        b.queries, b.answerable, b.database, json_number(r1).c_str(), json_number(r5).c_str(),
-        json_number(b.query_median_ms).c_str(), json_number(b.load_ms).c_str());
+    print_json({{"queries", b.queries},
+                {"answerable", b.answerable},
+                {"database", b.database},
+                {"recall_at_1", b.recall_at_1()},
+                {"recall_at_5", b.recall_at_k()},
+                {"query_median_ms", query_median_ms},
+                {"vocabulary_load_ms", load_ms}});
     return;
   }
+  const auto& o = a.recall;
   std::printf(
       "place recognition on 7-Scenes (%zu frames), vocabulary %s (%u words, loaded in "
       "%.0f ms)\n",
-      b.frames, a.vocabulary.c_str(), b.words, b.load_ms);
+      frames, a.vocabulary.c_str(), words, load_ms);
   std::printf(
-      "queries: every %d-th frame (%zu; %zu with a true match in the database); "
-      "database: the other %zu frames, minus +-%d around each query\n",
-      a.query_step, b.queries, b.answerable, b.database, a.exclude);
-  std::printf("hit: camera centre within %.2f m and rotation within %.0f deg\n", a.max_distance,
-              a.max_angle_deg);
-  std::printf("recall@1  %.3f  (%zu/%zu)\n", r1, b.hit1, b.queries);
-  std::printf("recall@5  %.3f  (%zu/%zu)\n", r5, b.hit5, b.queries);
-  std::printf("query     %.3f ms median\n", b.query_median_ms);
+      "queries: every %zu-th frame (%zu; %zu with a true match in the database); "
+      "database: the other %zu frames, minus +-%zu around each query\n",
+      o.query_step, b.queries, b.answerable, b.database, o.exclude);
+  std::printf("hit: camera centre within %.2f m and rotation within %.0f deg\n", o.max_distance,
+              o.max_angle_deg);
+  std::printf("recall@1  %.3f  (%zu/%zu)\n", b.recall_at_1(), b.hit1, b.queries);
+  std::printf("recall@5  %.3f  (%zu/%zu)\n", b.recall_at_k(), b.hit_k, b.queries);
+  std::printf("query     %.3f ms median\n", query_median_ms);
 }
 
 void run_bench_bow(const BenchBowArgs& a) {
-  const std::vector<fs::path> frames = seven_scenes_frames(fs::path(a.data) / "sevenscenes_600f");
+  a.recall.check();
+  const auto sequence = dataset::open_seven_scenes(fs::path(a.data) / "sevenscenes_600f");
+  const Trajectory& poses = sequence->ground_truth();
+  if (poses.size() != sequence->size())
+    throw Error("every 7-Scenes frame needs its pose file (frame-NNNNNN.pose.txt)",
+                {.file = sequence->folder().string()});
   Stopwatch load_watch;
   const auto vocabulary = slam::bow::Vocabulary::load(a.vocabulary);
   const double load_ms = load_watch.elapsed_ms();
 
   OrbExtractor extractor;
-  std::vector<slam::bow::BowVector> bows(frames.size());
-  std::vector<SE3> world_from_cam(frames.size());
-  {
-    Progress progress("extract + BoW", frames.size(), a.json);
-    for (std::size_t i = 0; i < frames.size(); ++i) {
-      bows[i] = vocabulary.transform(extractor.extract(read_grey(frames[i])).descriptors);
-      std::string stem = frames[i].string();
-      stem = stem.substr(0, stem.find(".color."));
-      world_from_cam[i] = read_seven_scenes_pose(stem + ".pose.txt");
-      progress.advance();
-    }
-    progress.finish();
+  std::vector<slam::bow::BowVector> bows;
+  std::vector<SE3> world_from_cam;
+  Progress progress("extract + BoW", sequence->size(), a.json);
+  for (std::size_t i = 0; i < sequence->size(); ++i) {
+    bows.push_back(vocabulary.transform(extractor.extract(grey_frame(*sequence, i)).descriptors));
+    world_from_cam.push_back(poses[i].world_from_cam);
+    progress.advance();
   }
-  const auto step = static_cast<std::size_t>(a.query_step);
-  slam::bow::BowDatabase database;
-  for (std::size_t i = 0; i < frames.size(); ++i) {
-    if (i % step != 0) database.add(i, bows[i]);
-  }
-  auto is_hit = [&](std::size_t q, std::size_t d) {
-    const SE3 q_from_d = world_from_cam[q].inverse() * world_from_cam[d];
-    return q_from_d.translation().norm() <= a.max_distance &&
-           q_from_d.so3().log().norm() <= a.max_angle_deg * M_PI / 180.0;
-  };
-  std::size_t queries = 0;
-  std::size_t answerable = 0;
-  std::size_t hit1 = 0;
-  std::size_t hit5 = 0;
-  std::vector<double> query_ms;
-  for (std::size_t q = 0; q < frames.size(); q += step) {
-    ++queries;
-    auto far = [&](std::uint64_t d) {
-      return d + static_cast<std::uint64_t>(a.exclude) < q ||
-             d > q + static_cast<std::uint64_t>(a.exclude);
-    };
-    bool any_positive = false;
-    for (std::size_t d = 0; d < frames.size(); ++d) {
-      any_positive = any_positive || (d % step != 0 && far(d) && is_hit(q, d));
-    }
-    answerable += any_positive ? 1 : 0;
-    slam::bow::QueryOptions options;
-    options.max_results = 5;
-    options.accept = far;
-    Stopwatch w;
-    const auto results = database.query(bows[q], options);
-    query_ms.push_back(w.elapsed_ms());
-    for (std::size_t r = 0; r < results.size(); ++r) {
-      if (!is_hit(q, results[r].image)) continue;
-      hit1 += r == 0 ? 1 : 0;
-      ++hit5;
-      break;
-    }
-  }
-  print_bow_recall(a, {frames.size(), vocabulary.word_count(), load_ms, queries, answerable,
-                       database.size(), hit1, hit5, summarize(query_ms).median});
+  progress.finish();
+  print_bow_recall(a, sequence->size(), vocabulary.word_count(), load_ms,
+                   slam::bow::evaluate_place_recall(bows, world_from_cam, a.recall));
 }
 
 }  // namespace
@@ -456,9 +347,9 @@ void add_vocab_verb(CLI::App& app, CLI::App& bench) {
   bow.add_option("--vocabulary", bow_args->vocabulary, "Vocabulary file")
       ->capture_default_str()
       ->check(CLI::ExistingFile);
-  bow.add_option("--query-step", bow_args->query_step, "Every n-th frame is a query")
+  bow.add_option("--query-step", bow_args->recall.query_step, "Every n-th frame is a query")
       ->capture_default_str();
-  bow.add_option("--exclude", bow_args->exclude, "Frames around a query left out")
+  bow.add_option("--exclude", bow_args->recall.exclude, "Frames around a query left out")
       ->capture_default_str();
   bow.add_flag("--json", bow_args->json, "Machine-readable output on stdout");
   bow.callback([bow_args] { run_bench_bow(*bow_args); });

@@ -17,6 +17,7 @@ coloc_require_package(OpenCV "libopencv-dev libopencv-contrib-dev" 4.5
 coloc_require_package(Ceres libceres-dev)
 coloc_require_package(spdlog libspdlog-dev)
 coloc_require_package(CLI11 libcli11-dev)
+coloc_require_package(nlohmann_json nlohmann-json3-dev 3.10)
 coloc_require_package(pugixml libpugixml-dev)
 coloc_require_package(SQLite3 libsqlite3-dev)
 coloc_require_package(Threads libc6-dev)

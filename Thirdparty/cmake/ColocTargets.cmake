@@ -46,14 +46,20 @@ function(coloc_benchmark name)
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} benchmark::benchmark benchmark::benchmark_main)
 endfunction()
 
-# coloc_cli_test(name script.py [args...]): a Python check that drives the `coloc` binary
-# (passed as --coloc PATH, then args). Exit 77 = skipped (data missing). Debian's python3 with
-# python3-numpy is /usr/bin/python3 (a pyenv python earlier on PATH may lack numpy).
-function(coloc_cli_test name script)
+# coloc_find_python3(): sets the cache variable COLOC_PYTHON3 to the python3 that the CLI's
+# plots and the Python checks run with. Debian's python3 with python3-numpy and
+# python3-matplotlib is /usr/bin/python3 (a pyenv python earlier on PATH may lack them).
+function(coloc_find_python3)
   find_program(COLOC_PYTHON3 python3 PATHS /usr/bin NO_DEFAULT_PATH)
   if(NOT COLOC_PYTHON3)
     find_program(COLOC_PYTHON3 python3)
   endif()
+endfunction()
+
+# coloc_cli_test(name script.py [args...]): a Python check that drives the `coloc` binary
+# (passed as --coloc PATH, then args). Exit 77 = skipped (data missing).
+function(coloc_cli_test name script)
+  coloc_find_python3()
   if(NOT COLOC_PYTHON3 OR NOT TARGET coloc)
     return()
   endif()

@@ -1,10 +1,19 @@
 #include "slam/core/timing.hpp"
 
+#include <time.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
 
 namespace coloc {
+
+double thread_cpu_seconds() {
+  timespec ts{};
+  // POSIX; cannot fail for the calling thread's own clock.
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
 
 double quantile(std::vector<double> samples, double q) {
   if (samples.empty()) return 0.0;

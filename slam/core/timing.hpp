@@ -21,6 +21,23 @@ class Stopwatch {
   std::chrono::steady_clock::time_point start_;
 };
 
+// CPU time consumed by the calling thread so far, in seconds. On a shared machine wall time also
+// counts the time other processes held the core; a benchmark that runs on one thread reports
+// this alongside (or instead of) wall time.
+double thread_cpu_seconds();
+
+// Stopwatch of the calling thread's CPU time. Start and read it on the same thread.
+class ThreadCpuStopwatch {
+ public:
+  ThreadCpuStopwatch() : start_(thread_cpu_seconds()) {}
+  void restart() { start_ = thread_cpu_seconds(); }
+  double elapsed_seconds() const { return thread_cpu_seconds() - start_; }
+  double elapsed_ms() const { return 1e3 * elapsed_seconds(); }
+
+ private:
+  double start_;
+};
+
 // Summary of a set of samples (any unit; the caller names it).
 struct SampleStats {
   std::size_t count = 0;

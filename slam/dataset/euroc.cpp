@@ -71,7 +71,7 @@ double ns_to_s(const std::filesystem::path& file, const TextRow& row) {
 
 class EurocSequence final : public Sequence {
  public:
-  explicit EurocSequence(const std::filesystem::path& dir) {
+  explicit EurocSequence(const std::filesystem::path& dir) : Sequence(dir) {
     root_ = std::filesystem::exists(dir / "mav0") ? dir / "mav0" : dir;
     read_camera_list(root_ / "cam0" / "data.csv", &left_);
     if (left_.empty()) throw Error("no frames", {.file = (root_ / "cam0" / "data.csv").string()});

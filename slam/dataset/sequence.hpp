@@ -11,6 +11,7 @@
 #include <opencv2/core/mat.hpp>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "slam/core/camera.hpp"
@@ -38,6 +39,9 @@ class Sequence {
  public:
   virtual ~Sequence() = default;
 
+  // The folder the sequence was opened from (what errors about the sequence name).
+  const std::filesystem::path& folder() const { return folder_; }
+
   virtual std::string format() const = 0;  // "tum", "7scenes", "euroc"
   virtual std::size_t size() const = 0;
   virtual double timestamp(std::size_t index) const = 0;
@@ -53,6 +57,12 @@ class Sequence {
 
   // IMU samples with t0 < t <= t1.
   std::vector<ImuSample> imu_between(double t0, double t1) const;
+
+ protected:
+  explicit Sequence(std::filesystem::path folder) : folder_(std::move(folder)) {}
+
+ private:
+  std::filesystem::path folder_;
 };
 
 struct SequenceOptions {

@@ -36,7 +36,7 @@ Eigen::Matrix4d read_matrix4(const std::filesystem::path& file) {
 class SevenScenesSequence final : public Sequence {
  public:
   SevenScenesSequence(const std::filesystem::path& dir, const SequenceOptions& options)
-      : dir_(dir), scale_(options.depth_scale > 0.0 ? options.depth_scale : 1000.0) {
+      : Sequence(dir), dir_(dir), scale_(options.depth_scale > 0.0 ? options.depth_scale : 1000.0) {
     extension_ =
         std::filesystem::exists(dir / "frame-000000.color.png") ? ".color.png" : ".color.jpg";
     while (std::filesystem::exists(dir / (frame_stem(count_) + extension_)))

@@ -43,7 +43,7 @@ Trajectory list_as_trajectory(const std::filesystem::path& file, std::vector<std
 class TumSequence final : public Sequence {
  public:
   TumSequence(const std::filesystem::path& dir, const SequenceOptions& options)
-      : dir_(dir), scale_(options.depth_scale > 0.0 ? options.depth_scale : 5000.0) {
+      : Sequence(dir), dir_(dir), scale_(options.depth_scale > 0.0 ? options.depth_scale : 5000.0) {
     if (std::filesystem::exists(dir / "associations.txt")) {
       read_associations(dir / "associations.txt");
     } else {

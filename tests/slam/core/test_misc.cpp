@@ -1,7 +1,9 @@
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <thread>
 #include <unordered_set>
 
 #include "slam/core/error.hpp"
@@ -48,6 +50,19 @@ TEST(Timing, QuantilesAndSummary) {
   EXPECT_DOUBLE_EQ(s.max, 5.0);
   Stopwatch w;
   EXPECT_GE(w.elapsed_ms(), 0.0);
+}
+
+// Thread CPU time advances while the thread computes and (nearly) stands still while it sleeps:
+// the property the benchmarks rely on to exclude time other processes held the core.
+TEST(Timing, ThreadCpuStopwatchCountsWorkNotSleep) {
+  const ThreadCpuStopwatch cpu;
+  volatile double sink = 0.0;
+  while (cpu.elapsed_ms() < 2.0)
+    sink = sink + 1.0;
+  EXPECT_GE(cpu.elapsed_ms(), 2.0);
+  const ThreadCpuStopwatch asleep;
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_LT(asleep.elapsed_ms(), 50.0);
 }
 
 TEST(Progress, NonTtyWritesOneLinePerDecile) {

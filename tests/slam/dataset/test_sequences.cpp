@@ -5,6 +5,7 @@
 #include <opencv2/core.hpp>
 
 #include "slam/core/error.hpp"
+#include "slam/dataset/image_folder.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "tests/testing/data.hpp"
 
@@ -15,6 +16,7 @@ TEST(TumSequence, AssociatesRgbAndDepthWithin20ms) {
   COLOC_REQUIRE_DATA(dir, "tum_fr1_xyz_37f");
   const auto seq = open_sequence(dir);
   EXPECT_EQ(seq->format(), "tum");
+  EXPECT_EQ(seq->folder(), dir);  // what errors about the sequence name
   // 37 colour and 37 depth images; 36 pairs lie within 20 ms (colour 31 is 20.2 ms from its
   // depth image). The greedy nearest-first pairing of associate.py would keep only 32.
   ASSERT_EQ(seq->size(), 36u);
@@ -131,6 +133,27 @@ TEST(Sequence, ErrorsNameTheFile) {
   EXPECT_DOUBLE_EQ(with_imu->imu()[0].timestamp, 0.990);  // sorted by time
   EXPECT_DOUBLE_EQ(with_imu->imu()[1].gyro.y(), 0.2);
   EXPECT_THROW(open_sequence(testing::temp_dir("empty_seq")), Error);
+}
+
+// Training images: colour and grey images at any depth of the tree, depth images left out by
+// their folder or file name below the given folder (not by the folder's own name).
+TEST(ImageFolder, FindsColourImagesAndSkipsDepth) {
+  const auto dir = testing::temp_dir("depth_named_root");
+  std::filesystem::create_directories(dir / "rgb");
+  std::filesystem::create_directories(dir / "depth");
+  for (const char* name :
+       {"rgb/b.png", "a.JPG", "rgb/c.jpeg", "depth/d.png", "frame.depth.png", "notes.txt"})
+    std::ofstream(dir / name) << "x";
+  const auto images = find_colour_images(dir);
+  ASSERT_EQ(images.size(), 3u);
+  EXPECT_EQ(images[0], dir / "a.JPG");  // sorted by path
+  EXPECT_EQ(images[1], dir / "rgb/b.png");
+  EXPECT_EQ(images[2], dir / "rgb/c.jpeg");
+  const auto second = every_nth(images, 2);
+  ASSERT_EQ(second.size(), 2u);
+  EXPECT_EQ(second[1], images[2]);
+  EXPECT_EQ(every_nth(images, 0).size(), 3u);
+  EXPECT_THROW(find_colour_images(dir / "missing"), Error);
 }
 
 }  // namespace
