@@ -1,0 +1,60 @@
+#pragma once
+// Opening a map file for reading and walking its tables with their checks (internal to
+// slam/mapdb): load_map(), verify_map(), read_map_info() and the exports share it.
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "slam/mapdb/metadata.hpp"
+#include "slam/mapdb/sqlite.hpp"
+
+namespace coloc::slam::mapdb::detail {
+
+// A map file opened read-only whose header was checked: application id, schema version not
+// newer than ours, every table present; its metadata entries are read.
+class MapFile {
+ public:
+  MapFile(const std::filesystem::path& path, int cache_mib);
+
+  Database& db() { return db_; }
+  const std::filesystem::path& path() const { return path_; }
+  int schema_version() const { return schema_version_; }
+  const MetadataEntries& entries() const { return entries_; }
+  MapCounts counts() const;
+  // Throws naming the file, "table.column" and the row.
+  [[noreturn]] void fail(const std::string& field, const std::string& row,
+                         const std::string& message) const;
+
+ private:
+  std::filesystem::path path_;
+  Database db_;
+  int schema_version_ = 0;
+  MetadataEntries entries_;
+};
+
+// A full read of one table in key order that also checks, at its end, the row count and the
+// content checksum the metadata states for it.
+class TableReader {
+ public:
+  TableReader(MapFile& file, const std::string& table);
+  bool next();
+  Statement& row() { return stmt_; }
+  // Column c as an id: NULL is the invalid id when `nullable`, an error otherwise; a negative
+  // value is an error. `column` names it in errors.
+  std::uint64_t id(int c, const std::string& column, const std::string& row, bool nullable,
+                   bool* valid = nullptr);
+  [[noreturn]] void fail(const std::string& column, const std::string& row,
+                         const std::string& message) const;
+  const std::string& table() const { return table_; }
+
+ private:
+  void finish();
+  MapFile& file_;
+  std::string table_;
+  Statement stmt_;
+  ContentHash hash_;
+  std::uint64_t rows_ = 0;
+  bool done_ = false;
+};
+
+}  // namespace coloc::slam::mapdb::detail
