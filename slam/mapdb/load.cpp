@@ -405,22 +405,19 @@ LoadedMap load_map(const fs::path& path, const bow::Vocabulary& vocabulary,
   return m;
 }
 
-VerifyReport verify_map(const fs::path& path, const bow::Vocabulary* vocabulary) {
+VerifyReport verify_map(const fs::path& path, const bow::Vocabulary* vocabulary,
+                        const ProgressFn& progress) {
   VerifyReport report;
   try {
     report.info = read_map_info(path);
-    detail::Database db(path, detail::Database::Mode::kReadOnly);
-    detail::Statement check(db, "PRAGMA integrity_check", "integrity_check");
-    while (check.next()) {
-      const std::string line = check.column_text(0);
-      if (line != "ok") report.problems.push_back(path.string() + ": integrity_check: " + line);
-    }
   } catch (const Error& e) {
     report.problems.push_back(e.what());
     return report;
   }
+  report.problems = detail::integrity_problems(path);
   LoadOptions options;
   options.rebuild_bow = false;
+  options.progress = progress;
   try {
     detail::Loader(path, vocabulary, options).run();
   } catch (const Error& e) {

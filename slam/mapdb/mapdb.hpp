@@ -152,7 +152,8 @@ struct VerifyReport {
 // vocabulary also its checksum. Problems are reported (each naming the file and table/row),
 // never thrown; a missing or foreign file is a problem too.
 VerifyReport verify_map(const std::filesystem::path& path,
-                        const bow::Vocabulary* vocabulary = nullptr);
+                        const bow::Vocabulary* vocabulary = nullptr,
+                        const ProgressFn& progress = {});
 
 // The keyframes' world_from_cam by timestamp (TUM trajectory), read without loading the map.
 Trajectory read_keyframe_trajectory(const std::filesystem::path& path);

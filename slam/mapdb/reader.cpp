@@ -74,13 +74,33 @@ MapCounts MapFile::counts() const {
 TableReader::TableReader(MapFile& file, const std::string& table_name)
     : file_(file),
       table_(table_name),
-      stmt_(file.db(), select_sql(detail::table(table_name)), table_name) {}
+      stmt_(file.db(), select_sql(detail::table(table_name)), table_name),
+      key_columns_(std::string(detail::table(table_name).key).find(',') == std::string::npos ? 1
+                                                                                             : 2) {}
+
+std::string TableReader::key_of_row() const {
+  std::string key = key_columns_ == 1 ? "" : "(";
+  for (int c = 0; c < key_columns_; ++c) {
+    if (c) key += ", ";
+    key += stmt_.column_text(c);
+  }
+  if (key_columns_ > 1) key += ')';
+  return key;
+}
 
 bool TableReader::next() {
   if (done_) return false;
-  if (stmt_.next()) {
+  bool row = false;
+  try {
+    row = stmt_.next();
+  } catch (const Error& e) {
+    // SQLite names no row; the last good one tells where in the table the damage starts.
+    fail("", last_key_.empty() ? "" : "after " + last_key_, e.message());
+  }
+  if (row) {
     hash_.fold(stmt_.row_hash());
     ++rows_;
+    last_key_ = key_of_row();
     return true;
   }
   done_ = true;
@@ -114,6 +134,31 @@ std::uint64_t TableReader::id(int c, const std::string& column, const std::strin
 void TableReader::fail(const std::string& column, const std::string& row,
                        const std::string& message) const {
   file_.fail(column.empty() ? table_ : table_ + "." + column, row, message);
+}
+
+}  // namespace coloc::slam::mapdb::detail
+
+namespace coloc::slam::mapdb::detail {
+
+std::vector<std::string> integrity_problems(const fs::path& path) {
+  std::vector<std::string> problems;
+  Database db(path, Database::Mode::kReadOnly);
+  auto check = [&](const std::string& pragma, const std::string& table) {
+    const std::string where = path.string() + ": " + (table.empty() ? "" : "table " + table + ": ");
+    try {
+      Statement s(db, pragma, table.empty() ? "integrity_check" : table);
+      while (s.next()) {
+        const std::string line = s.column_text(0);
+        if (line != "ok") problems.push_back(where + "integrity_check: " + line);
+      }
+    } catch (const Error& e) {
+      problems.push_back(where + "integrity_check: " + e.message());
+    }
+  };
+  for (const TableSchema& t : tables())
+    check(std::string("PRAGMA integrity_check(") + t.name + ")", t.name);
+  if (problems.empty()) check("PRAGMA integrity_check", "");
+  return problems;
 }
 
 }  // namespace coloc::slam::mapdb::detail

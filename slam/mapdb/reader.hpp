@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "slam/mapdb/metadata.hpp"
 #include "slam/mapdb/sqlite.hpp"
@@ -48,6 +49,7 @@ class TableReader {
   const std::string& table() const { return table_; }
 
  private:
+  std::string key_of_row() const;
   void finish();
   MapFile& file_;
   std::string table_;
@@ -55,6 +57,12 @@ class TableReader {
   ContentHash hash_;
   std::uint64_t rows_ = 0;
   bool done_ = false;
+  int key_columns_ = 1;
+  std::string last_key_;  // of the last row read, to place an error SQLite reports mid-table
 };
+
+// SQLite's own check of its page structure (PRAGMA integrity_check), table by table so that
+// each problem names its table, then over the whole file (pages that belong to no table).
+std::vector<std::string> integrity_problems(const std::filesystem::path& path);
 
 }  // namespace coloc::slam::mapdb::detail

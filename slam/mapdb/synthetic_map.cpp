@@ -130,7 +130,8 @@ void add_observations(map::Map& m, const SyntheticMapOptions& o, KeyframeId k,
 
 map::Map make_synthetic_map(const SyntheticMapOptions& o,
                             std::shared_ptr<const frame::FrameGeometry> geometry,
-                            const bow::Vocabulary* vocabulary) {
+                            const bow::Vocabulary* vocabulary,
+                            const std::function<void(int, int)>& progress) {
   o.check();
   if (!geometry) throw Error("make_synthetic_map: no geometry");
   Rng rng(o.seed);
@@ -149,6 +150,7 @@ map::Map make_synthetic_map(const SyntheticMapOptions& o,
     const KeyframeId id = m.add_keyframe(std::move(kf)).id;
     add_observations(m, o, id, tracks, rng);
     m.update_connections(id);
+    if (progress) progress(i + 1, o.keyframes);
   }
   if (o.erase_every > 0) {
     std::vector<KeyframeId> ids;

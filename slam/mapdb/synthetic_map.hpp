@@ -8,6 +8,7 @@
 //
 // Keyframe k sits at x = 0.1 k metres in the world, looking along +z (cam_from_world).
 #include <cstdint>
+#include <functional>
 #include <memory>
 
 #include "slam/bow/vocabulary.hpp"
@@ -33,9 +34,10 @@ struct SyntheticMapOptions {
 std::shared_ptr<const frame::FrameGeometry> synthetic_geometry();
 
 // Deterministic for given options. With a vocabulary the keyframes get their BoW vectors (as
-// tracking computes them); without, they stay empty.
+// tracking computes them); without, they stay empty. `progress` gets (keyframes built, total).
 map::Map make_synthetic_map(const SyntheticMapOptions& options,
                             std::shared_ptr<const frame::FrameGeometry> geometry,
-                            const bow::Vocabulary* vocabulary = nullptr);
+                            const bow::Vocabulary* vocabulary = nullptr,
+                            const std::function<void(int, int)>& progress = {});
 
 }  // namespace coloc::slam::mapdb

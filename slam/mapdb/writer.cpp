@@ -182,7 +182,7 @@ void MapWriter::keyframe(const KeyframeRow& r) {
 }
 
 void MapWriter::markers(KeyframeId keyframe,
-                        const std::vector<markers::MarkerObservation>& observations) {
+                        std::span<const markers::MarkerObservation> observations) {
   Table& t = tables_.at("markers");
   for (std::size_t i = 0; i < observations.size(); ++i) {
     const markers::MarkerObservation& m = observations[i];
@@ -197,27 +197,45 @@ void MapWriter::markers(KeyframeId keyframe,
   }
 }
 
-void MapWriter::observations(KeyframeId keyframe, const std::vector<MapPointId>& points) {
+void MapWriter::observation(KeyframeId keyframe, std::uint32_t keypoint, MapPointId point) {
   Table& t = tables_.at("observations");
+  Statement& s = begin_row(t);
+  s.integer(static_cast<std::int64_t>(keyframe.value())).integer(keypoint);
+  s.integer(static_cast<std::int64_t>(point.value()));
+  end_row(t);
+  ++counts_.observations;
+}
+
+void MapWriter::observations(KeyframeId keyframe, std::span<const MapPointId> points) {
   for (std::size_t i = 0; i < points.size(); ++i) {
-    if (!points[i].valid()) continue;
-    Statement& s = begin_row(t);
-    s.integer(static_cast<std::int64_t>(keyframe.value())).integer(static_cast<std::int64_t>(i));
-    s.integer(static_cast<std::int64_t>(points[i].value()));
-    end_row(t);
-    ++counts_.observations;
+    if (points[i].valid()) observation(keyframe, static_cast<std::uint32_t>(i), points[i]);
   }
 }
 
-void MapWriter::covisibility(KeyframeId keyframe, const std::map<KeyframeId, int>& edges) {
+void MapWriter::observations(KeyframeId keyframe, std::span<const std::uint32_t> keypoints,
+                             std::span<const MapPointId> points) {
+  for (std::size_t i = 0; i < points.size(); ++i)
+    observation(keyframe, keypoints[i], points[i]);
+}
+
+void MapWriter::edge(KeyframeId keyframe, KeyframeId other, int weight) {
   Table& t = tables_.at("covisibility");
-  for (const auto& [other, weight] : edges) {
-    Statement& s = begin_row(t);
-    s.integer(static_cast<std::int64_t>(keyframe.value()));
-    s.integer(static_cast<std::int64_t>(other.value())).integer(weight);
-    end_row(t);
-    ++counts_.covisibility;
-  }
+  Statement& s = begin_row(t);
+  s.integer(static_cast<std::int64_t>(keyframe.value()));
+  s.integer(static_cast<std::int64_t>(other.value())).integer(weight);
+  end_row(t);
+  ++counts_.covisibility;
+}
+
+void MapWriter::covisibility(KeyframeId keyframe, const std::map<KeyframeId, int>& edges) {
+  for (const auto& [other, weight] : edges)
+    edge(keyframe, other, weight);
+}
+
+void MapWriter::covisibility(KeyframeId keyframe,
+                             std::span<const std::pair<KeyframeId, int>> edges) {
+  for (const auto& [other, weight] : edges)
+    edge(keyframe, other, weight);
 }
 
 void MapWriter::point(const PointRow& p) {

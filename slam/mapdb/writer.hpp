@@ -4,6 +4,7 @@
 // B-trees only grow at their right edge and the content checksums can be folded as they go.
 #include <map>
 #include <memory>
+#include <span>
 #include <unordered_map>
 #include <vector>
 
@@ -62,9 +63,14 @@ class MapWriter {
   std::size_t drop_features_except(const std::vector<KeyframeId>& keyframes);
   bool has_features(KeyframeId keyframe) const { return feature_hashes_.count(keyframe) > 0; }
   void keyframe(const KeyframeRow& row);
-  void markers(KeyframeId keyframe, const std::vector<markers::MarkerObservation>& observations);
-  void observations(KeyframeId keyframe, const std::vector<MapPointId>& points);
+  void markers(KeyframeId keyframe, std::span<const markers::MarkerObservation> observations);
+  // The keyframe's keypoint -> point list (frame.points; invalid ids are skipped), or the valid
+  // entries only, as parallel arrays (save_live_map's snapshot).
+  void observations(KeyframeId keyframe, std::span<const MapPointId> points);
+  void observations(KeyframeId keyframe, std::span<const std::uint32_t> keypoints,
+                    std::span<const MapPointId> points);
   void covisibility(KeyframeId keyframe, const std::map<KeyframeId, int>& edges);
+  void covisibility(KeyframeId keyframe, std::span<const std::pair<KeyframeId, int>> edges);
   void point(const PointRow& row);
   void erased(KeyframeId keyframe, const map::ErasedKeyframe& erased);
   // Writes the metadata (with counts and checksums), commits and closes the file. Throws if a
@@ -85,6 +91,8 @@ class MapWriter {
   // Starts a row: the row's values are hashed as they are bound.
   Statement& begin_row(Table& t);
   void end_row(Table& t);
+  void observation(KeyframeId keyframe, std::uint32_t keypoint, MapPointId point);
+  void edge(KeyframeId keyframe, KeyframeId other, int weight);
 
   Database db_;
   MapMetadata metadata_;
