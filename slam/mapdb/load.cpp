@@ -2,9 +2,13 @@
 // what is derived rebuilt.
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <exception>
 #include <optional>
+#include <thread>
 #include <unordered_map>
 
 #include "slam/core/error.hpp"
@@ -19,6 +23,7 @@ using detail::TableReader;
 
 void LoadOptions::check() const {
   if (cache_mib < 1 || cache_mib > 4096) throw Error("LoadOptions: cache_mib not in 1..4096");
+  if (threads < 0) throw Error("LoadOptions: threads negative");
 }
 
 namespace detail {
@@ -84,6 +89,7 @@ class Loader {
   void read_keyframes();
   KeyframeColumns keyframe_row(TableReader& t, const std::string& row);
   frame::Frame frame_of(KeyframeColumns& k, TableReader& f, const std::string& row);
+  void check_parents();
   void read_markers();
   void read_points();
   void read_observations();
@@ -115,6 +121,7 @@ LoadedMap Loader::run() {
   read_metadata();
   read_cameras();
   read_keyframes();
+  check_parents();
   read_markers();
   read_points();
   read_observations();
@@ -346,8 +353,14 @@ void Loader::read_covisibility() {
     if (a == b || !keyframes_.count(b)) t.fail("other_id", row, "no such other keyframe");
     kf->second.covisibility[b] = static_cast<int>(t.row().column_integer(2));
   }
+}
+
+void Loader::check_parents() {
   for (const auto& [id, kf] : keyframes_) {
-    if (kf.parent.valid() && (!keyframes_.count(kf.parent) || id == bookkeeping_.first_keyframe))
+    if (!kf.parent.valid()) continue;
+    if (id == bookkeeping_.first_keyframe)
+      file_.fail("keyframes.parent", row_of(id.value()), "the first keyframe has a parent");
+    if (!keyframes_.count(kf.parent))
       file_.fail("keyframes.parent", row_of(id.value()),
                  "parent " + row_of(kf.parent.value()) + " is not a keyframe of the map");
   }
@@ -382,13 +395,42 @@ void Loader::restore() {
   }
 }
 
+// BoW vectors on every core (the vocabulary is immutable, keyframes are disjoint), then the
+// database in id order.
 void Loader::rebuild_bow() {
-  for (const auto& [id, kf] : out_.map.keyframes()) {
-    map::Keyframe& k = *out_.map.keyframe(id);
-    vocabulary_->transform(k.frame.features.descriptors, k.frame.bow, k.frame.feature_vector);
-    out_.database.add(id.value(), k.frame.bow);
-    advance();
+  std::vector<map::Keyframe*> keyframes;
+  for (const auto& [id, kf] : out_.map.keyframes())
+    keyframes.push_back(out_.map.keyframe(id));
+  std::sort(keyframes.begin(), keyframes.end(),
+            [](const map::Keyframe* a, const map::Keyframe* b) { return a->id < b->id; });
+  std::atomic<std::size_t> next{0};
+  const std::uint64_t base = done_;
+  auto work = [&](bool report) {
+    for (std::size_t i = next++; i < keyframes.size(); i = next++) {
+      frame::Frame& f = keyframes[i]->frame;
+      vocabulary_->transform(f.features.descriptors, f.bow, f.feature_vector);
+      if (report && i % 64 == 0 && options_.progress) options_.progress(base + i, total_);
+    }
+  };
+  const int n = options_.threads > 0
+                    ? options_.threads
+                    : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  std::vector<std::thread> helpers;
+  for (int t = 1; t < n; ++t)
+    helpers.emplace_back(work, false);
+  std::exception_ptr failure;
+  try {
+    work(true);  // only this thread reports progress, which may throw to cancel
+  } catch (...) {
+    failure = std::current_exception();
+    next = keyframes.size();  // the helpers stop at their next keyframe
   }
+  for (std::thread& t : helpers)
+    t.join();
+  if (failure) std::rethrow_exception(failure);
+  for (map::Keyframe* kf : keyframes)
+    out_.database.add(kf->id.value(), kf->frame.bow);
+  done_ = base + keyframes.size();
 }
 
 }  // namespace

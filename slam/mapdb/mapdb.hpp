@@ -109,6 +109,7 @@ SaveReport save_live_map(const map::Map& map, std::mutex& mutex, const MapMetada
 struct LoadOptions {
   int cache_mib = 8;        // SQLite page cache while reading
   bool rebuild_bow = true;  // BoW vectors and database (the vocabulary's transform per keyframe)
+  int threads = 0;          // for the BoW vectors, the slowest part (0: one per core)
   ProgressFn progress;
   void check() const;
 };
