@@ -78,13 +78,13 @@ TableReader::TableReader(MapFile& file, const std::string& table_name)
       key_columns_(std::string(detail::table(table_name).key).find(',') == std::string::npos ? 1
                                                                                              : 2) {}
 
-std::string TableReader::key_of_row() const {
-  std::string key = key_columns_ == 1 ? "" : "(";
-  for (int c = 0; c < key_columns_; ++c) {
-    if (c) key += ", ";
-    key += stmt_.column_text(c);
-  }
-  if (key_columns_ > 1) key += ')';
+std::string TableReader::last_key() const {
+  if (key_columns_ == 1) return std::to_string(last_key_[0]);
+  std::string key = "(";  // appended, not operator+: GCC 12 false -Wrestrict (bug 105329)
+  key += std::to_string(last_key_[0]);
+  key += ", ";
+  key += std::to_string(last_key_[1]);
+  key += ')';
   return key;
 }
 
@@ -95,12 +95,13 @@ bool TableReader::next() {
     row = stmt_.next();
   } catch (const Error& e) {
     // SQLite names no row; the last good one tells where in the table the damage starts.
-    fail("", last_key_.empty() ? "" : "after " + last_key_, e.message());
+    fail("", rows_ == 0 ? "" : "after " + last_key(), e.message());
   }
   if (row) {
     hash_.fold(stmt_.row_hash());
     ++rows_;
-    last_key_ = key_of_row();
+    for (int c = 0; c < key_columns_; ++c)
+      last_key_[c] = stmt_.column_integer(c);
     return true;
   }
   done_ = true;

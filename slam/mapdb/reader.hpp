@@ -49,7 +49,7 @@ class TableReader {
   const std::string& table() const { return table_; }
 
  private:
-  std::string key_of_row() const;
+  std::string last_key() const;
   void finish();
   MapFile& file_;
   std::string table_;
@@ -58,7 +58,8 @@ class TableReader {
   std::uint64_t rows_ = 0;
   bool done_ = false;
   int key_columns_ = 1;
-  std::string last_key_;  // of the last row read, to place an error SQLite reports mid-table
+  // Key of the last row read (integer columns), to place an error SQLite reports mid-table.
+  std::int64_t last_key_[2] = {0, 0};
 };
 
 // SQLite's own check of its page structure (PRAGMA integrity_check), table by table so that
