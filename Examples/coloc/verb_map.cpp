@@ -7,10 +7,14 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <functional>
 #include <iostream>
 #include <optional>
+#include <sstream>
 
 #include "Examples/coloc/cli_common.hpp"
+#include "Examples/coloc/row_progress.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "slam/bow/vocabulary.hpp"
@@ -19,6 +23,8 @@
 #include "slam/core/timing.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/eval/trajectory_error.hpp"
+#include "slam/mapdb/atomic_file.hpp"
+#include "slam/mapdb/mapdb.hpp"
 #include "slam/settings/settings.hpp"
 #include "slam/system/system.hpp"
 
@@ -29,6 +35,7 @@ namespace fs = std::filesystem;
 
 struct MapArgs {
   fs::path sequence, config, vocabulary, trajectory, keyframes;
+  fs::path save;  // map file (slam/mapdb), written after the run
   bool sequential = false;
   bool no_global_ba = false;
   bool json = false;
@@ -50,8 +57,10 @@ std::optional<eval::AteResult> ate_of(const dataset::Sequence& sequence, const T
   return eval::compute_ate(sequence.ground_truth(), t);
 }
 
+// `finished` (optional) sees the System once the run and its global BA are done.
 RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& settings,
-                   const slam::bow::Vocabulary& vocabulary, bool sequential, bool global_ba) {
+                   const slam::bow::Vocabulary& vocabulary, bool sequential, bool global_ba,
+                   const std::function<void(const slam::system::System&)>& finished = {}) {
   slam::system::SystemOptions options;
   options.tracking.wait_for_sink = sequential;
   slam::system::System slam(settings, vocabulary, options);
@@ -81,7 +90,28 @@ RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& 
   r.trajectory = slam.trajectory();
   r.keyframes = slam.keyframe_trajectory();
   r.ate = ate_of(sequence, r.trajectory);
+  if (finished) finished(slam);
   return r;
+}
+
+// The finished map into a map file (slam/mapdb), with the settings file's text.
+void save_finished_map(const slam::system::System& slam, const MapArgs& args, const SlamInputs& in,
+                       const slam::bow::Vocabulary& vocabulary) {
+  slam::mapdb::MapMetadata metadata;
+  metadata.vocabulary_checksum = slam::mapdb::vocabulary_checksum(vocabulary);
+  metadata.vocabulary_words = vocabulary.word_count();
+  std::ifstream config(in.config);
+  std::ostringstream text;
+  text << config.rdbuf();
+  metadata.settings = text.str();
+  metadata.camera = in.settings.camera;
+  RowProgress progress("saving the map", args.json);
+  const slam::mapdb::SaveReport report = slam.with_map([&](const slam::map::Map& m) {
+    return slam::mapdb::save_map(m, metadata, args.save, {.progress = progress.callback()});
+  });
+  progress.finish();
+  spdlog::info("map saved to {}: {} keyframes, {} points, {} bytes", args.save.string(),
+               report.keyframes, report.points, report.bytes);
 }
 
 // What `coloc map` and `coloc bench track` both start from.
@@ -95,9 +125,14 @@ MapInputs load_inputs(const MapArgs& args) {
 }
 
 void run_map(const MapArgs& args) {
+  // An unwritable map destination is an error before the run, not after it.
+  if (!args.save.empty()) slam::mapdb::AtomicFile probe(args.save);
   const MapInputs in = load_inputs(args);
   const RunResult r = run_slam(*in.slam.sequence, in.slam.settings, in.vocabulary, args.sequential,
-                               !args.no_global_ba);
+                               !args.no_global_ba, [&](const slam::system::System& slam) {
+                                 if (!args.save.empty())
+                                   save_finished_map(slam, args, in.slam, in.vocabulary);
+                               });
   write_tum_trajectory(args.trajectory, r.trajectory);
   if (!args.keyframes.empty()) write_tum_trajectory(args.keyframes, r.keyframes);
   const auto& s = r.summary;
@@ -189,6 +224,7 @@ void add_map_verb(CLI::App& app, CLI::App& bench) {
                   "BoW vocabulary (default: Vocabulary/coloc_orb_k10_L5.cvoc)");
   map->add_option("--trajectory", args->trajectory, "Output trajectory (TUM format)")->required();
   map->add_option("--keyframes", args->keyframes, "Output keyframe trajectory (TUM format)");
+  map->add_option("--save", args->save, "Save the finished map to this file (SQLite map database)");
   map->add_flag("--sequential", args->sequential,
                 "Tracking waits for local mapping after each keyframe");
   map->add_flag("--no-global-ba", args->no_global_ba,

@@ -36,6 +36,9 @@ template <typename IdType>
 class IdIssuer {
  public:
   IdType next() { return IdType(next_++); }
+  // The value next() will issue; saved with a map so that a restored map never reissues the id
+  // of something erased before the save (frames and erased keyframes may still refer to it).
+  typename IdType::ValueType peek() const { return next_; }
   // After loading a saved map: continue after the largest id seen.
   void continue_after(IdType id) {
     if (id.valid() && id.value() >= next_) next_ = id.value() + 1;

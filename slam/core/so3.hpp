@@ -19,6 +19,10 @@ class SO3 {
   // Projects R to the nearest rotation (SVD), so slightly non-orthogonal input is accepted.
   static SO3 from_matrix(const Eigen::Matrix3d& rotation);
   static SO3 from_axis_angle(const Eigen::Vector3d& axis, double angle);
+  // Takes q as it is, without normalizing: for a rotation read back bit for bit from a file
+  // that saved quaternion() (slam/mapdb), where renormalizing would change the last bits. The
+  // caller guarantees |q| = 1 to rounding.
+  static SO3 from_unit_quaternion(const Eigen::Quaterniond& q) { return SO3(q, NoNormalize{}); }
 
   // Exponential map; accurate for |omega| near 0 (Taylor series) and up to and beyond pi.
   static SO3 exp(const Eigen::Vector3d& omega);

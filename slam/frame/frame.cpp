@@ -85,6 +85,23 @@ Frame::Frame(FrameId frame_id, double stamp, features::OrbFeatures feats,
   assign_grid();
 }
 
+Frame::Frame(FrameId frame_id, double stamp, features::OrbFeatures feats, std::vector<float> depths,
+             std::vector<float> u_rights, std::shared_ptr<const FrameGeometry> geometry)
+    : id(frame_id),
+      timestamp(stamp),
+      features(std::move(feats)),
+      depth(std::move(depths)),
+      u_right(std::move(u_rights)),
+      geometry_(std::move(geometry)) {
+  const std::size_t n = features.size();
+  if (!geometry_) throw Error("Frame: no geometry");
+  if (features.descriptors.size() != n || depth.size() != n || u_right.size() != n)
+    throw Error("Frame: keypoints, descriptors, depth and u_right differ in count");
+  points.assign(n, MapPointId::invalid());
+  outlier.assign(n, 0);
+  assign_grid();
+}
+
 void Frame::assign_grid() {
   const FrameGeometry& g = *geometry_;
   grid_.assign(static_cast<std::size_t>(g.grid_cols * g.grid_rows), {});

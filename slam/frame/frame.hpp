@@ -58,6 +58,13 @@ class Frame {
   // every keypoint is monocular).
   Frame(FrameId id, double timestamp, features::OrbFeatures features, const cv::Mat& depth,
         std::shared_ptr<const FrameGeometry> geometry);
+  // A frame as a map file saved it (slam/mapdb), without an image: the features with the depth
+  // (metres, <= 0 invalid) and virtual right coordinate (< 0 none) of each keypoint exactly as
+  // they were computed, so nothing is re-derived from a depth image. The grid is rebuilt;
+  // points start invalid and outlier flags 0, for the caller to fill. Throws coloc::Error when
+  // depth or u_right does not have one value per keypoint, or geometry is null.
+  Frame(FrameId id, double timestamp, features::OrbFeatures features, std::vector<float> depth,
+        std::vector<float> u_right, std::shared_ptr<const FrameGeometry> geometry);
 
   FrameId id;
   double timestamp = 0.0;  // seconds
@@ -73,6 +80,12 @@ class Frame {
 
   std::size_t size() const { return features.size(); }
   const FrameGeometry& geometry() const { return *geometry_; }
+  // The shared geometry itself (null for a default-constructed frame): a map file stores one
+  // camera row per distinct geometry and keyframes refer to it.
+  const std::shared_ptr<const FrameGeometry>& geometry_ptr() const { return geometry_; }
+  // Keypoint indices per grid cell (row-major, grid_rows x grid_cols): derived from the
+  // keypoints; read-only, for checks that a restored frame equals the saved one.
+  const std::vector<std::vector<std::uint32_t>>& grid_cells() const { return grid_; }
   Eigen::Vector2d pixel(std::size_t i) const {
     return {features.keypoints[i].ux, features.keypoints[i].uy};
   }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "slam/core/error.hpp"
 
@@ -312,6 +313,112 @@ std::optional<SE3> Map::keyframe_pose(KeyframeId id) const {
     id = it->second.parent;
   }
   return std::nullopt;
+}
+
+MapBookkeeping Map::bookkeeping() const {
+  return {first_keyframe_, keyframe_ids_.peek(), point_ids_.peek(), erased_};
+}
+
+namespace {
+
+std::string id_text(std::uint64_t v) {
+  return std::to_string(v);
+}
+
+}  // namespace
+
+Map Map::restore(std::unordered_map<KeyframeId, Keyframe> keyframes,
+                 std::unordered_map<MapPointId, MapPoint> points, MapBookkeeping bookkeeping) {
+  Map m;
+  m.keyframes_ = std::move(keyframes);
+  m.points_ = std::move(points);
+  m.erased_ = std::move(bookkeeping.erased);
+  m.first_keyframe_ = bookkeeping.first_keyframe;
+  if (bookkeeping.next_keyframe_id > 0)
+    m.keyframe_ids_.continue_after(KeyframeId(bookkeeping.next_keyframe_id - 1));
+  if (bookkeeping.next_point_id > 0)
+    m.point_ids_.continue_after(MapPointId(bookkeeping.next_point_id - 1));
+  for (const auto& [id, kf] : m.keyframes_) {
+    if (kf.id != id || id.value() >= bookkeeping.next_keyframe_id)
+      throw Error("Map::restore: keyframe id " + id_text(id.value()) +
+                  " is not below the next keyframe id " + id_text(bookkeeping.next_keyframe_id));
+  }
+  for (const auto& [id, p] : m.points_) {
+    if (p.id != id || id.value() >= bookkeeping.next_point_id)
+      throw Error("Map::restore: point id " + id_text(id.value()) +
+                  " is not below the next point id " + id_text(bookkeeping.next_point_id));
+  }
+  m.check_restored_observations();
+  m.check_restored_tree();
+  for (auto& [id, kf] : m.keyframes_) {
+    kf.children.clear();
+    order_covisible(kf);
+  }
+  for (const auto& [id, kf] : m.keyframes_) {
+    if (kf.parent.valid()) m.keyframes_.at(kf.parent).children.insert(id);
+  }
+  return m;
+}
+
+void Map::check_restored_observations() const {
+  for (const auto& [pid, p] : points_) {
+    for (const auto& [k, idx] : p.observations) {
+      const Keyframe* kf = keyframe(k);
+      if (!kf || idx >= kf->frame.points.size() || kf->frame.points[idx] != pid)
+        throw Error("Map::restore: point " + id_text(pid.value()) + " observed by keyframe " +
+                    id_text(k.value()) + " at keypoint " + id_text(idx) +
+                    ", which does not hold it");
+    }
+  }
+  for (const auto& [k, kf] : keyframes_) {
+    for (std::size_t i = 0; i < kf.frame.points.size(); ++i) {
+      const MapPointId pid = kf.frame.points[i];
+      if (!pid.valid()) continue;
+      const MapPoint* p = point(pid);
+      const auto o =
+          p ? p->observations.find(k) : std::map<KeyframeId, std::uint32_t>::const_iterator{};
+      if (!p || o == p->observations.end() || o->second != i)
+        throw Error("Map::restore: keyframe " + id_text(k.value()) + " keypoint " + id_text(i) +
+                    " holds point " + id_text(pid.value()) + " without its observation");
+    }
+    for (const auto& [other, w] : kf.covisibility) {
+      if (other == k || !keyframes_.count(other))
+        throw Error("Map::restore: keyframe " + id_text(k.value()) +
+                    " has a covisibility edge to missing keyframe " + id_text(other.value()));
+    }
+  }
+}
+
+void Map::check_restored_tree() const {
+  if (!keyframes_.empty() && !keyframes_.count(first_keyframe_))
+    throw Error("Map::restore: the first keyframe " + id_text(first_keyframe_.value()) +
+                " is not in the map");
+  for (const auto& [k, kf] : keyframes_) {
+    if (!kf.parent.valid()) continue;
+    if (k == first_keyframe_ || kf.parent == k || !keyframes_.count(kf.parent))
+      throw Error("Map::restore: keyframe " + id_text(k.value()) + " has an invalid parent " +
+                  id_text(kf.parent.value()));
+  }
+  // Walking up from every keyframe must end (at the root or at a keyframe not yet connected);
+  // `done` remembers keyframes known to end, so the whole check is linear.
+  std::unordered_map<KeyframeId, bool> done;
+  for (const auto& [k, kf] : keyframes_) {
+    std::vector<KeyframeId> path;
+    KeyframeId up = k;
+    while (up.valid() && !done.count(up)) {
+      if (path.size() > keyframes_.size())
+        throw Error("Map::restore: spanning-tree cycle through keyframe " + id_text(k.value()));
+      path.push_back(up);
+      up = keyframes_.at(up).parent;
+    }
+    for (KeyframeId p : path)
+      done[p] = true;
+  }
+  for (const auto& [k, e] : erased_) {
+    if (keyframes_.count(k) || !(keyframes_.count(e.parent) || erased_.count(e.parent)))
+      throw Error("Map::restore: erased keyframe " + id_text(k.value()) +
+                  " is present or chains to missing keyframe " + id_text(e.parent.value()));
+  }
 }
 
 }  // namespace coloc::slam::map

@@ -61,6 +61,15 @@ struct ErasedKeyframe {
   SE3 cam_from_parent;
 };
 
+// What a saved map needs besides its keyframes and points to come back exactly (slam/mapdb):
+// the ids issued so far, the root of the spanning tree and the chain of erased keyframes.
+struct MapBookkeeping {
+  KeyframeId first_keyframe;
+  std::uint64_t next_keyframe_id = 0;  // the id value next_keyframe_id() issues next
+  std::uint64_t next_point_id = 0;     // the id value next_point_id() issues next
+  std::unordered_map<KeyframeId, ErasedKeyframe> erased;
+};
+
 class Map {
  public:
   KeyframeId next_keyframe_id() { return keyframe_ids_.next(); }
@@ -101,7 +110,27 @@ class Map {
   std::size_t point_count() const { return points_.size(); }
   KeyframeId first_keyframe() const { return first_keyframe_; }
 
+  // --- Saving and restoring (slam/mapdb) ---------------------------------------------------
+  // Ids, root and erased chain as a save must carry them (the erased chain is copied: one
+  // small entry per culled keyframe).
+  MapBookkeeping bookkeeping() const;
+  const std::unordered_map<KeyframeId, ErasedKeyframe>& erased_keyframes() const { return erased_; }
+  // Rebuilds a map exactly as it was saved. The editing API cannot: it issues new ids, drops
+  // duplicate observations and recomputes point statistics and connections. Keyframes come
+  // with frame.points, covisibility and parent; points with their observations; both sides of
+  // every observation must agree. Derived here, as the editing API maintains them: children
+  // (from the parents) and covisible_ordered (from covisibility). Throws coloc::Error naming
+  // the first relation that does not hold (ids at or above the issuers' next values, a side of
+  // an observation missing, an edge or parent to a missing keyframe, a spanning-tree cycle, an
+  // erased keyframe that is also present or chains to nothing).
+  static Map restore(std::unordered_map<KeyframeId, Keyframe> keyframes,
+                     std::unordered_map<MapPointId, MapPoint> points, MapBookkeeping bookkeeping);
+
  private:
+  // restore()'s checks, split by relation.
+  void check_restored_observations() const;
+  void check_restored_tree() const;
+
   std::unordered_map<KeyframeId, Keyframe> keyframes_;
   std::unordered_map<MapPointId, MapPoint> points_;
   std::unordered_map<KeyframeId, ErasedKeyframe> erased_;

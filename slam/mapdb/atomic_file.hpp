@@ -1,0 +1,41 @@
+#pragma once
+// Replacing a file so that readers, and a crash or kill -9 at any moment, see either the whole
+// previous file or the whole new one, never a part: the new content is written to a temporary
+// file in the same directory (rename is atomic only within one file system), flushed to disk,
+// renamed over the target, and the directory is flushed so that the rename itself survives a
+// power cut. Used for map files and for the CLI's exports (trajectories, PLY).
+//
+// Not thread-safe; one AtomicFile per output.
+#include <filesystem>
+
+namespace coloc::slam::mapdb {
+
+class AtomicFile {
+ public:
+  // Creates the temporary `<target>.tmp-<pid>` at once, so an output directory that is
+  // missing or not writable is a coloc::Error (naming the target) before any work is done.
+  // Also throws when the target is a directory.
+  explicit AtomicFile(std::filesystem::path target);
+  // Without commit(): removes the temporary; the target is untouched.
+  ~AtomicFile();
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
+
+  const std::filesystem::path& target() const { return target_; }
+  // Where to write the new content (closed before commit()).
+  const std::filesystem::path& temp_path() const { return temp_; }
+  // fsync(temporary), rename(temporary, target), fsync(directory). With sync == false the
+  // rename is still atomic for other processes but may be lost in a power cut (benchmarks).
+  // Throws coloc::Error naming the target on failure (the target is then untouched).
+  void commit(bool sync = true);
+
+  // Removes `<target>.tmp-<pid>` files whose process no longer runs (left by a killed save).
+  static void remove_stale(const std::filesystem::path& target);
+
+ private:
+  std::filesystem::path target_;
+  std::filesystem::path temp_;
+  bool committed_ = false;
+};
+
+}  // namespace coloc::slam::mapdb

@@ -1,0 +1,471 @@
+// load_map(): every table read in key order, every reference checked, the Map restored and
+// what is derived rebuilt.
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <optional>
+#include <thread>
+#include <unordered_map>
+
+#include "slam/core/error.hpp"
+#include "slam/mapdb/codec.hpp"
+#include "slam/mapdb/reader.hpp"
+#include "slam/mapdb/schema.hpp"
+
+namespace coloc::slam::mapdb {
+
+namespace fs = std::filesystem;
+using detail::TableReader;
+
+void LoadOptions::check() const {
+  if (cache_mib < 1 || cache_mib > 4096) throw Error("LoadOptions: cache_mib not in 1..4096");
+  if (threads < 0) throw Error("LoadOptions: threads negative");
+}
+
+namespace detail {
+namespace {
+
+std::string row_of(std::uint64_t id) {
+  return std::to_string(id);
+}
+
+std::string row_of(std::uint64_t a, std::uint64_t b) {
+  std::string r = "(";  // appended, not operator+: GCC 12 false -Wrestrict (bug 105329)
+  r += std::to_string(a);
+  r += ", ";
+  r += std::to_string(b);
+  r += ')';
+  return r;
+}
+
+std::optional<Camera> camera_of(TableReader& t, const std::string& row,
+                                const frame::FrameGeometry& g) {
+  Statement& s = t.row();
+  const std::string model = s.column_text(1);
+  if (s.column_blob(8).size() % 8 != 0) t.fail("distortion", row, "blob size not a multiple of 8");
+  const std::vector<double> d = decode_f64s(s.column_blob(8));
+  const auto width = static_cast<int>(s.column_integer(2));
+  const auto height = static_cast<int>(s.column_integer(3));
+  if (model == "none") return std::nullopt;
+  if (model == "PinHole" && d.size() == 5) {
+    PinholeCamera c{width, height, g.fx, g.fy, g.cx, g.cy, {}};
+    std::copy(d.begin(), d.end(), c.distortion.begin());
+    return c;
+  }
+  if (model == "KannalaBrandt8" && d.size() == 4) {
+    KannalaBrandtCamera c{width, height, g.fx, g.fy, g.cx, g.cy, {}};
+    std::copy(d.begin(), d.end(), c.distortion.begin());
+    return c;
+  }
+  t.fail("model", row,
+         "unknown model '" + model + "' with " + std::to_string(d.size()) + " coefficients");
+}
+
+// What the `keyframes` row says besides the Keyframe's own fields.
+struct KeyframeColumns {
+  map::Keyframe keyframe;
+  FrameId frame_id;
+  double timestamp = 0.0;
+  std::shared_ptr<const frame::FrameGeometry> geometry;
+  SE3 cam_from_world;
+  bool has_pose = false;
+  int image_width = 0, image_height = 0;
+  std::size_t keypoint_count = 0;
+};
+
+// One load: the tables in dependency order, each row checked against what came before.
+class Loader {
+ public:
+  Loader(const fs::path& path, const bow::Vocabulary* vocabulary, const LoadOptions& options);
+  LoadedMap run();
+
+ private:
+  void read_metadata();
+  void read_cameras();
+  void read_keyframes();
+  KeyframeColumns keyframe_row(TableReader& t, const std::string& row);
+  frame::Frame frame_of(KeyframeColumns& k, TableReader& f, const std::string& row);
+  void check_parents();
+  void read_markers();
+  void read_points();
+  void read_observations();
+  void read_covisibility();
+  void read_erased();
+  void restore();
+  void rebuild_bow();
+  void advance();
+
+  MapFile file_;
+  const bow::Vocabulary* vocabulary_;
+  LoadOptions options_;
+  LoadedMap out_;
+  std::unordered_map<KeyframeId, map::Keyframe> keyframes_;
+  std::unordered_map<MapPointId, map::MapPoint> points_;
+  std::unordered_map<KeyframeId, map::ErasedKeyframe> erased_;
+  map::MapBookkeeping bookkeeping_;
+  std::uint64_t done_ = 0, total_ = 0;
+};
+
+Loader::Loader(const fs::path& path, const bow::Vocabulary* vocabulary, const LoadOptions& options)
+    : file_(path, options.cache_mib), vocabulary_(vocabulary), options_(options) {}
+
+void Loader::advance() {
+  if (++done_ % 256 == 0 && options_.progress) options_.progress(done_, total_);
+}
+
+LoadedMap Loader::run() {
+  read_metadata();
+  read_cameras();
+  read_keyframes();
+  check_parents();
+  read_markers();
+  read_points();
+  read_observations();
+  read_covisibility();
+  read_erased();
+  restore();
+  if (options_.rebuild_bow && vocabulary_) rebuild_bow();
+  if (options_.progress) options_.progress(total_, total_);
+  return std::move(out_);
+}
+
+void Loader::read_metadata() {
+  const MetadataEntries& e = file_.entries();
+  const fs::path& path = file_.path();
+  out_.metadata = parse_metadata(e, path);
+  if (vocabulary_) {
+    const std::uint64_t ours = vocabulary_checksum(*vocabulary_);
+    if (ours != out_.metadata.vocabulary_checksum)
+      file_.fail("metadata.vocabulary_checksum", "",
+                 "the map was built with another vocabulary (checksum " +
+                     hex64(out_.metadata.vocabulary_checksum) + ", this vocabulary's " +
+                     hex64(ours) + ")");
+  }
+  bookkeeping_.next_keyframe_id = entry_u64(e, "next_keyframe_id", path);
+  bookkeeping_.next_point_id = entry_u64(e, "next_point_id", path);
+  if (!entry(e, "first_keyframe", path).empty())
+    bookkeeping_.first_keyframe = KeyframeId(entry_u64(e, "first_keyframe", path));
+  const MapCounts c = file_.counts();
+  total_ = c.keyframes * (options_.rebuild_bow && vocabulary_ ? 2 : 1) + c.points;
+}
+
+void Loader::read_cameras() {
+  TableReader t(file_, "cameras");
+  while (t.next()) {
+    Statement& s = t.row();
+    const std::uint64_t id = t.id(0, "id", "?", false);
+    const std::string row = row_of(id);
+    if (id != out_.geometries.size()) t.fail("id", row, "camera ids must be 0, 1, 2, ...");
+    auto g = std::make_shared<frame::FrameGeometry>();
+    g->fx = s.column_real(4);
+    g->fy = s.column_real(5);
+    g->cx = s.column_real(6);
+    g->cy = s.column_real(7);
+    g->bf = s.column_real(9);
+    g->close_depth = s.column_real(10);
+    g->min_depth = s.column_real(11);
+    g->max_depth = s.column_real(12);
+    g->readout = s.column_real(13);
+    g->min_x = s.column_real(14);
+    g->max_x = s.column_real(15);
+    g->min_y = s.column_real(16);
+    g->max_y = s.column_real(17);
+    g->grid_cols = static_cast<int>(s.column_integer(18));
+    g->grid_rows = static_cast<int>(s.column_integer(19));
+    if (s.column_blob(20).size() % 4 != 0)
+      t.fail("scale_factors", row, "blob size not a multiple of 4");
+    // Derived exactly as FrameGeometry::make() derives them.
+    g->scale_factors = decode_f32s(s.column_blob(20));
+    for (float f : g->scale_factors)
+      g->level_sigma2.push_back(f * f);
+    if (g->scale_factors.size() > 1) g->log_scale_factor = std::log(g->scale_factors[1]);
+    try {
+      g->check();
+    } catch (const Error& e) {
+      t.fail("", row, e.message());
+    }
+    std::optional<Camera> camera = camera_of(t, row, *g);
+    if (id == 0) out_.metadata.camera = camera;
+    out_.geometries.push_back(g);
+  }
+}
+
+// `keyframes` and `keyframe_features` (both in id order) joined into keyframes with frames.
+void Loader::read_keyframes() {
+  TableReader t(file_, "keyframes");
+  TableReader f(file_, "keyframe_features");
+  while (t.next()) {
+    const std::uint64_t id = t.id(0, "id", "?", false);
+    const std::string row = row_of(id);
+    if (id >= bookkeeping_.next_keyframe_id)
+      t.fail("id", row, "not below the metadata's next_keyframe_id");
+    if (!f.next()) f.fail("", row, "no features row for this keyframe");
+    const std::uint64_t fid = f.id(0, "keyframe_id", "?", false);
+    if (fid != id)
+      f.fail("keyframe_id", row_of(std::min(id, fid)),
+             fid < id ? "features of a keyframe that does not exist" : "no features row");
+    KeyframeColumns k = keyframe_row(t, row);
+    k.keyframe.frame = frame_of(k, f, row);
+    keyframes_.emplace(k.keyframe.id, std::move(k.keyframe));
+    advance();
+  }
+  if (f.next())
+    f.fail("", row_of(f.id(0, "keyframe_id", "?", false)),
+           "features of a keyframe that does not exist");
+  if (!keyframes_.empty() && !keyframes_.count(bookkeeping_.first_keyframe))
+    file_.fail("metadata.first_keyframe", "", "not a keyframe of the map");
+}
+
+KeyframeColumns Loader::keyframe_row(TableReader& t, const std::string& row) {
+  Statement& s = t.row();
+  KeyframeColumns k;
+  k.keyframe.id = KeyframeId(t.id(0, "id", row, false));
+  k.frame_id = FrameId(t.id(1, "frame_id", row, true));
+  k.timestamp = s.column_real(2);
+  const std::uint64_t camera = t.id(3, "camera_id", row, false);
+  if (camera >= out_.geometries.size()) t.fail("camera_id", row, "no such camera");
+  k.geometry = out_.geometries[camera];
+  if (s.column_blob(11).size() != kPoseBytes) t.fail("cam_from_world", row, "not 56 bytes");
+  k.cam_from_world = decode_pose(s.column_blob(11));
+  k.has_pose = s.column_integer(12) != 0;
+  k.keyframe.parent = KeyframeId(t.id(13, "parent", row, true));
+  k.image_width = static_cast<int>(s.column_integer(14));
+  k.image_height = static_cast<int>(s.column_integer(15));
+  const std::int64_t n = s.column_integer(16);
+  if (n < 0 || n > (1 << 24)) t.fail("keypoint_count", row, "out of range");
+  k.keypoint_count = static_cast<std::size_t>(n);
+  k.keyframe.marker_size = s.column_real(17);
+  return k;
+}
+
+frame::Frame Loader::frame_of(KeyframeColumns& k, TableReader& f, const std::string& row) {
+  Statement& s = f.row();
+  const auto keypoints = s.column_blob(1);
+  const auto descriptors = s.column_blob(2);
+  const std::size_t n = k.keypoint_count;
+  if (keypoints.size() != n * kKeypointRecordBytes)
+    f.fail("keypoints", row,
+           "blob has " + std::to_string(keypoints.size()) + " bytes, expected " +
+               std::to_string(n) + " keypoints x " + std::to_string(kKeypointRecordBytes));
+  if (descriptors.size() != n * kDescriptorBytes)
+    f.fail("descriptors", row,
+           "blob has " + std::to_string(descriptors.size()) + " bytes, expected " +
+               std::to_string(n) + " x " + std::to_string(kDescriptorBytes));
+  ContentHash own;
+  own.integer(s.column_integer(0));
+  own.blob(keypoints);
+  own.blob(descriptors);
+  if (static_cast<std::uint64_t>(s.column_integer(3)) != own.value())
+    f.fail("checksum", row, "the keypoints or descriptors are damaged (row checksum mismatch)");
+  KeypointData d = decode_keypoints(keypoints, n);
+  features::OrbFeatures feats;
+  feats.keypoints = std::move(d.keypoints);
+  feats.descriptors = decode_descriptors(descriptors, n);
+  feats.image_width = k.image_width;
+  feats.image_height = k.image_height;
+  frame::Frame frame(k.frame_id, k.timestamp, std::move(feats), std::move(d.depth),
+                     std::move(d.u_right), k.geometry);
+  frame.outlier = std::move(d.outlier);
+  frame.cam_from_world = k.cam_from_world;
+  frame.has_pose = k.has_pose;
+  return frame;
+}
+
+void Loader::read_markers() {
+  TableReader t(file_, "markers");
+  while (t.next()) {
+    Statement& s = t.row();
+    const std::uint64_t kf = t.id(0, "keyframe_id", "?", false);
+    const std::uint64_t seq = t.id(1, "seq", "?", false);
+    const std::string row = row_of(kf, seq);
+    auto it = keyframes_.find(KeyframeId(kf));
+    if (it == keyframes_.end()) t.fail("keyframe_id", row, "no such keyframe");
+    if (seq != it->second.markers.size()) t.fail("seq", row, "markers out of sequence");
+    markers::MarkerObservation m;
+    m.id = static_cast<int>(s.column_integer(2));
+    for (int c = 0; c < 4; ++c)
+      m.corners[static_cast<std::size_t>(c)] = {s.column_real(3 + 2 * c), s.column_real(4 + 2 * c)};
+    m.image_width = static_cast<int>(s.column_integer(11));
+    m.image_height = static_cast<int>(s.column_integer(12));
+    it->second.markers.push_back(m);
+  }
+}
+
+void Loader::read_points() {
+  TableReader t(file_, "map_points");
+  while (t.next()) {
+    Statement& s = t.row();
+    map::MapPoint p;
+    p.id = MapPointId(t.id(0, "id", "?", false));
+    const std::string row = row_of(p.id.value());
+    if (p.id.value() >= bookkeeping_.next_point_id)
+      t.fail("id", row, "not below the metadata's next_point_id");
+    p.position = {s.column_real(1), s.column_real(2), s.column_real(3)};
+    if (s.column_blob(4).size() != kDescriptorBytes) t.fail("descriptor", row, "not 32 bytes");
+    p.descriptor = decode_descriptor(s.column_blob(4));
+    p.normal = {s.column_real(5), s.column_real(6), s.column_real(7)};
+    p.min_distance = s.column_real(8);
+    p.max_distance = s.column_real(9);
+    // Not checked against the keyframes: the Map keeps a point's first keyframe after that
+    // keyframe is erased, and tolerates a missing reference.
+    p.reference = KeyframeId(t.id(10, "reference_keyframe", row, true));
+    p.first_keyframe = KeyframeId(t.id(11, "first_keyframe", row, true));
+    p.visible = static_cast<int>(s.column_integer(12));
+    p.found = static_cast<int>(s.column_integer(13));
+    points_.emplace(p.id, std::move(p));
+    advance();
+  }
+}
+
+void Loader::read_observations() {
+  TableReader t(file_, "observations");
+  while (t.next()) {
+    const std::uint64_t kf_id = t.id(0, "keyframe_id", "?", false);
+    const std::uint64_t index = t.id(1, "keypoint", "?", false);
+    const std::string row = row_of(kf_id, index);
+    const MapPointId pid(t.id(2, "point_id", row, false));
+    auto kf = keyframes_.find(KeyframeId(kf_id));
+    if (kf == keyframes_.end()) t.fail("keyframe_id", row, "no such keyframe");
+    if (index >= kf->second.frame.size())
+      t.fail("keypoint", row,
+             "keypoint index out of range (" + std::to_string(kf->second.frame.size()) +
+                 " keypoints)");
+    auto p = points_.find(pid);
+    if (p == points_.end()) t.fail("point_id", row, "no such map point");
+    if (!p->second.observations.emplace(kf->first, static_cast<std::uint32_t>(index)).second)
+      t.fail("point_id", row, "the point is observed twice by this keyframe");
+    kf->second.frame.points[index] = pid;
+  }
+}
+
+void Loader::read_covisibility() {
+  TableReader t(file_, "covisibility");
+  while (t.next()) {
+    const KeyframeId a(t.id(0, "keyframe_id", "?", false));
+    const KeyframeId b(t.id(1, "other_id", "?", false));
+    const std::string row = row_of(a.value(), b.value());
+    auto kf = keyframes_.find(a);
+    if (kf == keyframes_.end()) t.fail("keyframe_id", row, "no such keyframe");
+    if (a == b || !keyframes_.count(b)) t.fail("other_id", row, "no such other keyframe");
+    kf->second.covisibility[b] = static_cast<int>(t.row().column_integer(2));
+  }
+}
+
+void Loader::check_parents() {
+  for (const auto& [id, kf] : keyframes_) {
+    if (!kf.parent.valid()) continue;
+    if (id == bookkeeping_.first_keyframe)
+      file_.fail("keyframes.parent", row_of(id.value()), "the first keyframe has a parent");
+    if (!keyframes_.count(kf.parent))
+      file_.fail("keyframes.parent", row_of(id.value()),
+                 "parent " + row_of(kf.parent.value()) + " is not a keyframe of the map");
+  }
+}
+
+void Loader::read_erased() {
+  TableReader t(file_, "erased_keyframes");
+  while (t.next()) {
+    const KeyframeId id(t.id(0, "id", "?", false));
+    const std::string row = row_of(id.value());
+    if (keyframes_.count(id)) t.fail("id", row, "an erased keyframe that is also in the map");
+    map::ErasedKeyframe e;
+    e.parent = KeyframeId(t.id(1, "parent", row, false));
+    if (t.row().column_blob(2).size() != kPoseBytes) t.fail("cam_from_parent", row, "not 56 bytes");
+    e.cam_from_parent = decode_pose(t.row().column_blob(2));
+    erased_.emplace(id, e);
+  }
+  for (const auto& [id, e] : erased_) {
+    if (!keyframes_.count(e.parent) && !erased_.count(e.parent))
+      file_.fail("erased_keyframes.parent", row_of(id.value()),
+                 "parent " + row_of(e.parent.value()) + " is neither a keyframe nor erased");
+  }
+}
+
+void Loader::restore() {
+  bookkeeping_.erased = std::move(erased_);
+  try {
+    out_.map = map::Map::restore(std::move(keyframes_), std::move(points_), bookkeeping_);
+  } catch (const Error& e) {
+    // The reads above checked every reference; what remains is the tree's shape.
+    file_.fail("keyframes.parent", "", e.message());
+  }
+}
+
+// BoW vectors on every core (the vocabulary is immutable, keyframes are disjoint), then the
+// database in id order.
+void Loader::rebuild_bow() {
+  std::vector<map::Keyframe*> keyframes;
+  for (const auto& [id, kf] : out_.map.keyframes())
+    keyframes.push_back(out_.map.keyframe(id));
+  std::sort(keyframes.begin(), keyframes.end(),
+            [](const map::Keyframe* a, const map::Keyframe* b) { return a->id < b->id; });
+  std::atomic<std::size_t> next{0};
+  const std::uint64_t base = done_;
+  auto work = [&](bool report) {
+    for (std::size_t i = next++; i < keyframes.size(); i = next++) {
+      frame::Frame& f = keyframes[i]->frame;
+      vocabulary_->transform(f.features.descriptors, f.bow, f.feature_vector);
+      if (report && i % 64 == 0 && options_.progress) options_.progress(base + i, total_);
+    }
+  };
+  const int n = options_.threads > 0
+                    ? options_.threads
+                    : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  std::vector<std::thread> helpers;
+  for (int t = 1; t < n; ++t)
+    helpers.emplace_back(work, false);
+  std::exception_ptr failure;
+  try {
+    work(true);  // only this thread reports progress, which may throw to cancel
+  } catch (...) {
+    failure = std::current_exception();
+    next = keyframes.size();  // the helpers stop at their next keyframe
+  }
+  for (std::thread& t : helpers)
+    t.join();
+  if (failure) std::rethrow_exception(failure);
+  for (map::Keyframe* kf : keyframes)
+    out_.database.add(kf->id.value(), kf->frame.bow);
+  done_ = base + keyframes.size();
+}
+
+}  // namespace
+}  // namespace detail
+
+LoadedMap load_map(const fs::path& path, const bow::Vocabulary& vocabulary,
+                   const LoadOptions& options) {
+  options.check();
+  const auto start = std::chrono::steady_clock::now();
+  LoadedMap m = detail::Loader(path, &vocabulary, options).run();
+  spdlog::debug("loaded {} keyframes, {} points from {} in {:.2f} s", m.map.keyframe_count(),
+                m.map.point_count(), path.string(),
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  return m;
+}
+
+VerifyReport verify_map(const fs::path& path, const bow::Vocabulary* vocabulary,
+                        const ProgressFn& progress) {
+  VerifyReport report;
+  try {
+    report.info = read_map_info(path);
+  } catch (const Error& e) {
+    report.problems.push_back(e.what());
+    return report;
+  }
+  report.problems = detail::integrity_problems(path);
+  LoadOptions options;
+  options.rebuild_bow = false;
+  options.progress = progress;
+  try {
+    detail::Loader(path, vocabulary, options).run();
+  } catch (const Error& e) {
+    report.problems.push_back(e.what());
+  }
+  return report;
+}
+
+}  // namespace coloc::slam::mapdb

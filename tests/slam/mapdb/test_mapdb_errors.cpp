@@ -1,0 +1,307 @@
+// Damaged, truncated, edited, foreign and newer map files are coloc::Errors naming the file and
+// the table (and row); failed saves never replace the previous file.
+#include <gtest/gtest.h>
+#include <sqlite3.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <random>
+
+#include "slam/core/error.hpp"
+#include "slam/mapdb/atomic_file.hpp"
+#include "slam/mapdb/writer.hpp"
+#include "tests/slam/mapdb/map_compare.hpp"
+#include "tests/slam/mapdb/mapdb_test_support.hpp"
+#include "tests/testing/data.hpp"
+
+namespace coloc::slam::mapdb {
+namespace {
+
+namespace fs = std::filesystem;
+using test::map_difference;
+
+std::vector<char> read_bytes(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+void write_bytes(const fs::path& p, const std::vector<char>& bytes) {
+  std::ofstream(p, std::ios::binary | std::ios::trunc)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+void sql(const fs::path& p, const std::string& statement) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(p.c_str(), &db), SQLITE_OK);
+  EXPECT_EQ(sqlite3_exec(db, statement.c_str(), nullptr, nullptr, nullptr), SQLITE_OK)
+      << sqlite3_errmsg(db);
+  sqlite3_close(db);
+}
+
+// The message of the coloc::Error that loading `p` throws ("" if it loads).
+std::string load_error(const fs::path& p) {
+  try {
+    load_map(p, test_support::vocabulary());
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return {};
+}
+
+bool names_a_table(const std::string& message) {
+  for (const char* t : {"metadata", "cameras", "keyframes", "keyframe_features", "markers",
+                        "map_points", "observations", "covisibility", "erased_keyframes",
+                        "user_version", "application_id", "sqlite_master"}) {
+    if (message.find(t) != std::string::npos) return true;
+  }
+  return false;
+}
+
+class MapDbErrors : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = testing::temp_dir("mapdb_errors");
+    good_ = dir_ / "good.db";
+    map_ = test::small_map(2, 20);
+    save_map(map_, test::test_metadata(), good_);
+  }
+  fs::path copy(const std::string& name) {
+    const fs::path p = dir_ / name;
+    fs::copy_file(good_, p, fs::copy_options::overwrite_existing);
+    return p;
+  }
+  fs::path dir_, good_;
+  map::Map map_;
+};
+
+TEST_F(MapDbErrors, FlippedBytesInAKeyframeBlobNameTheRow) {
+  const fs::path p = copy("flipped.db");
+  std::vector<char> bytes = read_bytes(p);
+  // Find keyframe 7's descriptors in the file by their first 32 bytes, and damage them.
+  detail::Bytes encoded;
+  detail::encode_descriptor(map_.keyframe(KeyframeId(7))->frame.features.descriptors[0], encoded);
+  const std::vector<char> needle(encoded.begin(), encoded.end());
+  const auto it = std::search(bytes.begin(), bytes.end(), needle.begin(), needle.end());
+  ASSERT_NE(it, bytes.end());
+  *(it + 5) = static_cast<char>(*(it + 5) ^ 0x10);
+  write_bytes(p, bytes);
+  const std::string e = load_error(p);
+  EXPECT_NE(e.find(p.string()), std::string::npos) << e;
+  EXPECT_NE(e.find("keyframe_features"), std::string::npos) << e;
+  EXPECT_NE(e.find("row 7"), std::string::npos) << e;
+  const VerifyReport v = verify_map(p);
+  ASSERT_FALSE(v.ok());
+  EXPECT_NE(v.problems.back().find("keyframe_features"), std::string::npos);
+}
+
+TEST_F(MapDbErrors, RandomByteFlipsAreNamedErrorsOrChangeNothing) {
+  const std::vector<char> good = read_bytes(good_);
+  std::mt19937_64 rng(11);
+  int detected = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    std::vector<char> bytes = good;
+    for (int k = 0; k < 3; ++k) {
+      const std::size_t at = rng() % bytes.size();
+      bytes[at] = static_cast<char>(bytes[at] ^ static_cast<char>(1 + rng() % 255));
+    }
+    const fs::path p = dir_ / "random.db";
+    write_bytes(p, bytes);
+    try {
+      const LoadedMap m = load_map(p, test_support::vocabulary());
+      // A flip in unused space (free bytes of a page): the map must be exactly the original.
+      EXPECT_EQ(map_difference(map_, m.map), "") << "trial " << trial;
+    } catch (const Error& e) {
+      ++detected;
+      EXPECT_NE(std::string(e.what()).find(p.string()), std::string::npos) << e.what();
+      EXPECT_TRUE(names_a_table(e.what())) << e.what();
+    }
+  }
+  EXPECT_GT(detected, 10);
+}
+
+TEST_F(MapDbErrors, TruncatedFilesAreNamedErrors) {
+  const std::vector<char> good = read_bytes(good_);
+  for (double fraction : {0.0, 0.01, 0.1, 0.5, 0.9, 0.99}) {
+    std::vector<char> bytes(
+        good.begin(),
+        good.begin() + static_cast<long>(fraction * static_cast<double>(good.size())));
+    const fs::path p = dir_ / "truncated.db";
+    write_bytes(p, bytes);
+    const std::string e = load_error(p);
+    EXPECT_NE(e.find(p.string()), std::string::npos) << fraction << ": " << e;
+    EXPECT_TRUE(names_a_table(e)) << fraction << ": " << e;
+    // Loading never writes: the damaged file is left as it was.
+    EXPECT_EQ(read_bytes(p), bytes);
+  }
+}
+
+TEST_F(MapDbErrors, MissingTableIsNamed) {
+  const fs::path p = copy("missing.db");
+  sql(p, "DROP TABLE covisibility");
+  const std::string e = load_error(p);
+  EXPECT_NE(e.find(p.string()), std::string::npos) << e;
+  EXPECT_NE(e.find("table 'covisibility' is missing"), std::string::npos) << e;
+}
+
+TEST_F(MapDbErrors, NewerSchemaIsRefused) {
+  const fs::path p = copy("newer.db");
+  sql(p, "PRAGMA user_version = 2");
+  const std::string e = load_error(p);
+  EXPECT_NE(e.find(p.string()), std::string::npos) << e;
+  EXPECT_NE(e.find("schema version 2 is newer"), std::string::npos) << e;
+  EXPECT_THROW(read_map_info(p), Error);
+}
+
+TEST_F(MapDbErrors, ForeignVocabularyIsRefused) {
+  MapMetadata metadata = test::test_metadata();
+  metadata.vocabulary_checksum ^= 0x5a5a;
+  const fs::path p = dir_ / "foreign.db";
+  save_map(map_, metadata, p);
+  const std::string e = load_error(p);
+  EXPECT_NE(e.find(p.string()), std::string::npos) << e;
+  EXPECT_NE(e.find("metadata.vocabulary_checksum"), std::string::npos) << e;
+  EXPECT_NE(e.find("another vocabulary"), std::string::npos) << e;
+  EXPECT_FALSE(verify_map(p, &test_support::vocabulary()).ok());
+  EXPECT_TRUE(verify_map(p).ok());  // without a vocabulary the file itself is sound
+}
+
+TEST_F(MapDbErrors, EditedOrDeletedRowsAreNamed) {
+  const fs::path edited = copy("edited.db");
+  sql(edited, "UPDATE map_points SET x = x + 1 WHERE id = (SELECT MIN(id) FROM map_points)");
+  std::string e = load_error(edited);
+  EXPECT_NE(e.find("map_points"), std::string::npos) << e;
+  EXPECT_NE(e.find("checksum mismatch"), std::string::npos) << e;
+  const fs::path deleted = copy("deleted.db");
+  sql(deleted, "DELETE FROM observations WHERE keyframe_id = 3");
+  e = load_error(deleted);
+  EXPECT_NE(e.find("observations"), std::string::npos) << e;
+  EXPECT_NE(e.find("rows where the metadata says"), std::string::npos) << e;
+}
+
+// A file with sound checksums but broken references (written through the internal writer):
+// the reference checks name the table, column and row.
+TEST_F(MapDbErrors, BrokenReferencesNameTableColumnAndRow) {
+  const map::Keyframe& kf = *map_.keyframe(map_.first_keyframe());
+  auto write = [&](const fs::path& p, const std::vector<MapPointId>& points) {
+    AtomicFile out(p);
+    detail::MapWriter w(out.temp_path(), {}, test::test_metadata());
+    detail::EncodedFeatures f;
+    f.encode(kf.id, kf.frame);
+    w.features(f);
+    w.keyframe(detail::KeyframeRow::of(kf));
+    w.observations(kf.id, points);
+    w.finish(kf.id, kf.id.value() + 1, 100);
+    out.commit(false);
+  };
+  std::vector<MapPointId> points(kf.frame.size());
+  points[5] = MapPointId(42);  // no such point
+  const fs::path missing = dir_ / "missing_point.db";
+  write(missing, points);
+  std::string e = load_error(missing);
+  EXPECT_NE(e.find("observations.point_id"), std::string::npos) << e;
+  EXPECT_NE(e.find("row (" + std::to_string(kf.id.value()) + ", 5)"), std::string::npos) << e;
+  const VerifyReport v = verify_map(missing);
+  ASSERT_FALSE(v.ok());
+  EXPECT_NE(v.problems.back().find("observations.point_id"), std::string::npos);
+}
+
+TEST_F(MapDbErrors, FailedSaveKeepsThePreviousFile) {
+  const map::Map other = test::small_map(9, 25);
+  SaveOptions options;
+  int calls = 0;
+  options.progress = [&](std::uint64_t, std::uint64_t) {
+    if (++calls == 2) throw Error("cancelled");
+  };
+  EXPECT_THROW(save_map(other, test::test_metadata(), good_, options), Error);
+  EXPECT_EQ(map_difference(map_, load_map(good_, test_support::vocabulary()).map), "");
+  for (const auto& entry : fs::directory_iterator(dir_))
+    EXPECT_EQ(entry.path().string().find(".tmp-"), std::string::npos) << entry.path();
+}
+
+TEST_F(MapDbErrors, UnwritableOutputIsAnErrorBeforeAnyWork) {
+  bool worked = false;
+  SaveOptions options;
+  options.progress = [&](std::uint64_t, std::uint64_t) { worked = true; };
+  const fs::path nowhere = dir_ / "no_such_dir" / "map.db";
+  try {
+    save_map(map_, test::test_metadata(), nowhere, options);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(nowhere.string()), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(save_map(map_, test::test_metadata(), good_ / "x.db", options), Error);
+  EXPECT_THROW(save_map(map_, test::test_metadata(), dir_, options), Error);  // a directory
+  if (::geteuid() != 0) {  // root writes into read-only directories
+    const fs::path ro = dir_ / "read_only";
+    fs::create_directory(ro);
+    ::chmod(ro.c_str(), 0555);
+    EXPECT_THROW(save_map(map_, test::test_metadata(), ro / "map.db", options), Error);
+    ::chmod(ro.c_str(), 0755);
+  }
+  EXPECT_FALSE(worked);
+}
+
+TEST(AtomicFile, ReplacesOnCommitOnly) {
+  const fs::path dir = testing::temp_dir("atomic_file");
+  const fs::path target = dir / "out.txt";
+  std::ofstream(target) << "old";
+  {
+    AtomicFile f(target);
+    std::ofstream(f.temp_path()) << "new";
+  }  // no commit
+  EXPECT_EQ(read_bytes(target), std::vector<char>({'o', 'l', 'd'}));
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1);
+  {
+    AtomicFile f(target);
+    std::ofstream(f.temp_path()) << "new";
+    f.commit();
+  }
+  EXPECT_EQ(read_bytes(target), std::vector<char>({'n', 'e', 'w'}));
+  // Leftovers of dead processes go; those of running ones (pid 1) stay.
+  const pid_t child = ::fork();
+  if (child == 0) ::_exit(0);
+  ASSERT_GT(child, 0);
+  ::waitpid(child, nullptr, 0);
+  const fs::path dead = dir / ("out.txt.tmp-" + std::to_string(child));
+  const fs::path alive = dir / "out.txt.tmp-1";
+  std::ofstream(dead) << "x";
+  std::ofstream(alive) << "x";
+  AtomicFile::remove_stale(target);
+  EXPECT_FALSE(fs::exists(dead));
+  EXPECT_TRUE(fs::exists(alive));
+}
+
+TEST(MapRestore, RejectsBrokenRelations) {
+  const map::Map good = test::small_map(4, 8);
+  auto restore = [&](auto edit) {
+    std::unordered_map<KeyframeId, map::Keyframe> kfs = good.keyframes();
+    std::unordered_map<MapPointId, map::MapPoint> pts = good.points();
+    map::MapBookkeeping b = good.bookkeeping();
+    edit(kfs, pts, b);
+    return map::Map::restore(std::move(kfs), std::move(pts), std::move(b));
+  };
+  EXPECT_EQ(map_difference(good, restore([](auto&, auto&, auto&) {})), "");
+  // One side of an observation missing.
+  EXPECT_THROW(restore([](auto& kfs, auto&, auto&) {
+                 for (auto& [id, kf] : kfs)
+                   std::fill(kf.frame.points.begin(), kf.frame.points.end(), MapPointId::invalid());
+               }),
+               Error);
+  // A spanning-tree cycle between two keyframes.
+  EXPECT_THROW(restore([](auto& kfs, auto&, auto& b) {
+                 KeyframeId a, c;
+                 for (const auto& [id, kf] : kfs) {
+                   if (id == b.first_keyframe) continue;
+                   (a.valid() ? c : a) = id;
+                 }
+                 kfs.at(a).parent = c;
+                 kfs.at(c).parent = a;
+               }),
+               Error);
+  // An id the issuer has not issued yet.
+  EXPECT_THROW(restore([](auto&, auto&, auto& b) { b.next_point_id = 1; }), Error);
+}
+
+}  // namespace
+}  // namespace coloc::slam::mapdb
