@@ -1,6 +1,7 @@
 #include "slam/loop/essential_graph.hpp"
 
 #include <ceres/ceres.h>
+#include <spdlog/spdlog.h>
 
 #include <Eigen/Geometry>
 #include <set>
@@ -72,7 +73,9 @@ EssentialGraphReport optimize_essential_graph(map::Map& map, const EssentialGrap
   ceres::Problem::Options problem_options;
   problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
-  optim::PoseManifold manifold;
+  // optim::PoseManifold's lifted Jacobian suits analytic costs only; autodiff needs the true
+  // plus-Jacobian of translation (Euclidean) and quaternion (xyzw, Eigen order).
+  ceres::ProductManifold<ceres::EuclideanManifold<3>, ceres::EigenQuaternionManifold> manifold;
   auto add_edge = [&](KeyframeId a, KeyframeId b, const SE3& a_from_b) {
     auto* cost = new ceres::AutoDiffCostFunction<RelativePoseError, 6, 7, 7>(
         new RelativePoseError(a_from_b));
@@ -102,6 +105,7 @@ EssentialGraphReport optimize_essential_graph(map::Map& map, const EssentialGrap
   options.num_threads = 1;
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
+  spdlog::debug("essential graph: {}", summary.BriefReport());
   report.initial_cost = summary.initial_cost;
   report.final_cost = summary.final_cost;
   for (auto& [id, x] : pose)
