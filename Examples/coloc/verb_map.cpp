@@ -38,6 +38,7 @@ struct MapArgs {
   fs::path save;  // map file (slam/mapdb), written after the run
   bool sequential = false;
   bool no_global_ba = false;
+  bool no_loop = false;
   bool json = false;
   int runs = 1;
 };
@@ -60,9 +61,11 @@ std::optional<eval::AteResult> ate_of(const dataset::Sequence& sequence, const T
 // `finished` (optional) sees the System once the run and its global BA are done.
 RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& settings,
                    const slam::bow::Vocabulary& vocabulary, bool sequential, bool global_ba,
+                   bool loop = true,
                    const std::function<void(const slam::system::System&)>& finished = {}) {
   slam::system::SystemOptions options;
   options.tracking.wait_for_sink = sequential;
+  options.loop.enabled = loop;
   slam::system::System slam(settings, vocabulary, options);
   Progress progress("slam", sequence.size());
   RunResult r;
@@ -114,6 +117,13 @@ void save_finished_map(const slam::system::System& slam, const MapArgs& args, co
                report.keyframes, report.points, report.bytes);
 }
 
+std::vector<double> loop_correction_ms(const slam::loop::LoopStats& stats) {
+  std::vector<double> ms;
+  for (const auto& l : stats.loops)
+    ms.push_back(l.ms);
+  return ms;
+}
+
 // What `coloc map` and `coloc bench track` both start from.
 struct MapInputs {
   SlamInputs slam;
@@ -128,11 +138,11 @@ void run_map(const MapArgs& args) {
   // An unwritable map destination is an error before the run, not after it.
   if (!args.save.empty()) slam::mapdb::AtomicFile probe(args.save);
   const MapInputs in = load_inputs(args);
-  const RunResult r = run_slam(*in.slam.sequence, in.slam.settings, in.vocabulary, args.sequential,
-                               !args.no_global_ba, [&](const slam::system::System& slam) {
-                                 if (!args.save.empty())
-                                   save_finished_map(slam, args, in.slam, in.vocabulary);
-                               });
+  const RunResult r =
+      run_slam(*in.slam.sequence, in.slam.settings, in.vocabulary, args.sequential,
+               !args.no_global_ba, !args.no_loop, [&](const slam::system::System& slam) {
+                 if (!args.save.empty()) save_finished_map(slam, args, in.slam, in.vocabulary);
+               });
   write_tum_trajectory(args.trajectory, r.trajectory);
   if (!args.keyframes.empty()) write_tum_trajectory(args.keyframes, r.keyframes);
   const auto& s = r.summary;
@@ -144,6 +154,9 @@ void run_map(const MapArgs& args) {
                 {"map_points", s.points},
                 {"relocalizations", s.relocalizations},
                 {"markers", s.mapping.markers},
+                {"loops", s.loop.loops.size()},
+                {"loops_rejected", s.loop.rejected},
+                {"loop_correction_ms", loop_correction_ms(s.loop)},
                 {"ms_per_frame_median", s.total_ms.median},
                 {"ms_per_frame_p99", s.total_ms.p99},
                 {"ate_rmse_m", r.ate ? Json(r.ate->translation.rmse) : Json()},
@@ -173,24 +186,26 @@ void run_bench(const MapArgs& args) {
   std::printf("sequence %s (%zu frames), settings %s, %s mapping\n", args.sequence.string().c_str(),
               sequence->size(), config.string().c_str(),
               args.sequential ? "sequential" : "concurrent");
-  std::printf("%4s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %7s %5s %4s %8s %8s\n", "run",
+  std::printf("%4s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %7s %5s %4s %8s %8s %5s\n", "run",
               "extr_med", "extr_p99", "pose_med", "pose_p99", "lmap_med", "lmap_p99", "kf_med",
-              "kf_p99", "total_med", "total_p99", "ba_med", "lost", "kfs", "ate_mm", "gba_mm");
+              "kf_p99", "total_med", "total_p99", "ba_med", "lost", "kfs", "ate_mm", "gba_mm",
+              "loops");
   std::vector<double> ate_online, ate_final;
   for (int run = 0; run < args.runs; ++run) {
-    const RunResult r = run_slam(*sequence, settings, vocabulary, args.sequential, true);
+    const RunResult r =
+        run_slam(*sequence, settings, vocabulary, args.sequential, true, !args.no_loop);
     if (r.ate_online) ate_online.push_back(1e3 * r.ate_online->translation.rmse);
     if (r.ate) ate_final.push_back(1e3 * r.ate->translation.rmse);
     const auto& s = r.summary;
     const SampleStats ba = summarize(s.mapping.ba_ms);
     std::printf(
         "%4d %9.2f %9.2f %9.2f %9.2f %9.2f %9.2f %9.2f %9.2f %9.2f %9.2f %7.1f %5zu %4zu %8.2f "
-        "%8.2f\n",
+        "%8.2f %5zu\n",
         run + 1, s.extract_ms.median, s.extract_ms.p99, s.pose_ms.median, s.pose_ms.p99,
         s.local_map_ms.median, s.local_map_ms.p99, s.keyframe_ms.median, s.keyframe_ms.p99,
         s.total_ms.median, s.total_ms.p99, ba.median, s.lost, s.keyframes,
         r.ate_online ? 1e3 * r.ate_online->translation.rmse : -1.0,
-        r.ate ? 1e3 * r.ate->translation.rmse : -1.0);
+        r.ate ? 1e3 * r.ate->translation.rmse : -1.0, s.loop.loops.size());
   }
   std::printf(
       "ms per frame in the tracking thread: extraction (extr), initial pose (pose), local map "
@@ -229,6 +244,7 @@ void add_map_verb(CLI::App& app, CLI::App& bench) {
                 "Tracking waits for local mapping after each keyframe");
   map->add_flag("--no-global-ba", args->no_global_ba,
                 "Skip the global bundle adjustment of the finished map");
+  map->add_flag("--no-loop", args->no_loop, "No loop closing");
   map->add_flag("--json", args->json, "Machine-readable summary");
   map->callback([args] { run_map(*args); });
 
@@ -241,6 +257,7 @@ void add_map_verb(CLI::App& app, CLI::App& bench) {
   track->add_option("--vocabulary", args->vocabulary, "BoW vocabulary");
   track->add_option("--runs", args->runs, "Runs (spread between runs)")->check(CLI::Range(1, 100));
   track->add_flag("--sequential", args->sequential, "Tracking waits for local mapping");
+  track->add_flag("--no-loop", args->no_loop, "No loop closing");
   track->callback([args] { run_bench(*args); });
 }
 

@@ -151,6 +151,17 @@ void Map::erase_keyframe(KeyframeId keyframe) {
     c->second.parent = best;
     if (keyframes_.count(best)) keyframes_.at(best).children.insert(child);
   }
+  // A loop edge is a constraint the essential graph must keep: the parent (rigidly tied to kf
+  // by the spanning tree) takes it over, unless that would be a self-edge.
+  for (KeyframeId partner : kf.loop_edges) {
+    auto p = keyframes_.find(partner);
+    if (p == keyframes_.end()) continue;
+    p->second.loop_edges.erase(keyframe);
+    if (partner != parent && keyframes_.count(parent)) {
+      p->second.loop_edges.insert(parent);
+      keyframes_.at(parent).loop_edges.insert(partner);
+    }
+  }
   if (keyframes_.count(parent)) {
     keyframes_.at(parent).children.erase(keyframe);
     erased_[keyframe] = {parent,

@@ -31,6 +31,9 @@ struct Keyframe {
   std::vector<KeyframeId> covisible_ordered;  // by decreasing weight
   KeyframeId parent;                          // spanning tree (invalid for the first keyframe)
   std::set<KeyframeId> children;
+  // Loop closures this keyframe takes part in (both sides list each other): essential-graph
+  // edges that survive covisibility changes. Erasing a keyframe hands its edges to its parent.
+  std::set<KeyframeId> loop_edges;
   std::vector<markers::MarkerObservation> markers;  // fiducials seen in this keyframe
   double marker_size = 0.0;  // edge length of those markers (metres), from the settings
 
@@ -85,7 +88,8 @@ class Map {
   void erase_point(MapPointId point);
   // Keeps the point with more observations; the other's observations move to it.
   void replace_point(MapPointId from, MapPointId to);
-  // Erases a keyframe, reconnecting its children in the spanning tree.
+  // Erases a keyframe, reconnecting its children in the spanning tree and handing its loop
+  // edges to its parent.
   void erase_keyframe(KeyframeId keyframe);
 
   // Recomputes the keyframe's covisibility edges (both directions) and, the first time, its

@@ -62,14 +62,28 @@ bool LocalMapper::idle() const {
 }
 
 void LocalMapper::wait_idle() {
-  std::unique_lock lock(state_mutex_);
-  state_cv_.wait(lock, [&] { return pending_ == 0 || !thread_.joinable() || stopping_; });
+  {
+    std::unique_lock lock(state_mutex_);
+    state_cv_.wait(lock, [&] { return pending_ == 0 || !thread_.joinable() || stopping_; });
+  }
+  // Sequential mode means the whole chain behind tracking has finished the keyframe.
+  if (output_) output_->wait_idle();
 }
 
 void LocalMapper::pause() {
-  std::unique_lock lock(state_mutex_);
+  request_pause();
+  wait_paused();
+}
+
+void LocalMapper::request_pause() {
+  std::lock_guard lock(state_mutex_);
+  ++pause_requests_;
   pause_requested_ = true;
   abort_ba_ = true;
+}
+
+void LocalMapper::wait_paused() {
+  std::unique_lock lock(state_mutex_);
   // The thread takes a keyframe in hand only under state_mutex_ and after checking the request,
   // so once processing_ is false here it stays false until resume().
   state_cv_.wait(lock, [&] { return !processing_; });
@@ -77,7 +91,8 @@ void LocalMapper::pause() {
 
 void LocalMapper::resume() {
   std::lock_guard lock(state_mutex_);
-  pause_requested_ = false;
+  if (pause_requests_ > 0) --pause_requests_;
+  pause_requested_ = pause_requests_ > 0;
   state_cv_.notify_all();
 }
 

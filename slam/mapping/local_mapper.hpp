@@ -78,8 +78,13 @@ class LocalMapper final : public map::KeyframeSink {
 
   // For a loop closer's correction: the mapper finishes (or abandons the BA of) the keyframe in
   // hand and then processes none until resume(); keyframes pushed meanwhile wait in the queue.
-  // pause() returns once the mapper is paused, or stopped.
+  // pause() returns once the mapper is paused, or stopped. Pauses nest: the mapper runs again
+  // when every pause() (or request_pause()) has had its resume(). request_pause() asks without
+  // waiting (a caller that must first unblock the mapper, e.g. by draining the queue the mapper
+  // writes into, then calls wait_paused()).
   void pause();
+  void request_pause();
+  void wait_paused();
   void resume();
   bool paused() const;
   // Closes the queue, aborts BA, processes what is queued without BA, joins. Idempotent.
@@ -112,6 +117,7 @@ class LocalMapper final : public map::KeyframeSink {
   mutable std::mutex state_mutex_;    // guards pending_, processing_, stats_; with state_cv_
   std::condition_variable state_cv_;  // pending_/processing_ changed, resume or stop
   int pending_ = 0;                   // pushed but not yet processed
+  int pause_requests_ = 0;            // pause()/request_pause() calls not yet resumed
   bool processing_ = false;           // the mapper thread has a keyframe in hand
   MappingStats stats_;
   std::vector<MapPointId> recent_points_;  // mapper thread only

@@ -1,7 +1,9 @@
 #pragma once
-// Options of the SLAM system: tracking's and local mapping's, and what the system adds.
+// Options of the SLAM system: tracking's, local mapping's and loop closing's, and what the
+// system adds.
 #include <string>
 
+#include "slam/loop/loop_options.hpp"
 #include "slam/mapping/local_mapper.hpp"
 #include "slam/tracking/tracker.hpp"
 
@@ -10,6 +12,7 @@ namespace coloc::slam::system {
 struct SystemOptions {
   tracking::TrackingOptions tracking;
   mapping::LocalMappingOptions mapping;
+  loop::LoopOptions loop;      // loop.enabled = false: no loop closer behind local mapping
   bool detect_markers = true;  // run the marker detector on every keyframe
   // Throws coloc::Error naming the first invalid field.
   void check() const;

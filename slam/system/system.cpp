@@ -25,6 +25,14 @@ std::string SystemSummary::describe() const {
     << ba.median << ", p99 " << ba.p99 << "; keyframes culled " << mapping.keyframes_culled
     << ", points culled " << mapping.points_culled << ", fused " << mapping.points_fused
     << ", triangulated " << mapping.points_triangulated;
+  std::vector<double> correction_ms;
+  for (const auto& l : loop.loops)
+    correction_ms.push_back(l.ms);
+  const SampleStats corr = summarize(correction_ms);
+  s << "\nloops: " << loop.loops.size() << " closed, " << loop.rejected << " of " << loop.candidates
+    << " candidates rejected (" << loop.rejected_aliasing << " implausible), correction ms median "
+    << corr.median << ", max " << corr.max << "; global BA " << loop.global_ba_runs << " runs ("
+    << loop.global_ba_aborted << " aborted)";
   return s.str();
 }
 
@@ -49,8 +57,11 @@ System::System(const settings::Settings& settings, const bow::Vocabulary& vocabu
     detector_ = std::make_unique<markers::MarkerDetector>(d);
   }
   spdlog::info("slam options:\n{}", options_.describe());
+  if (options_.loop.enabled)
+    loop_closer_ = std::make_unique<loop::LoopCloser>(*shared_, options_.loop);
   mapper_ = std::make_unique<mapping::LocalMapper>(*shared_, vocabulary, detector_.get(),
-                                                   settings.markers.size, options_.mapping);
+                                                   settings.markers.size, options_.mapping,
+                                                   loop_closer_.get());
   const int width = image_width(settings.camera), height = image_height(settings.camera);
   if (width > 0 && height > 0) {
     start_tracking(width, height);
@@ -59,6 +70,7 @@ System::System(const settings::Settings& settings, const bow::Vocabulary& vocabu
                  settings.source.string());
   }
   mapper_->start();
+  if (loop_closer_) loop_closer_->start(mapper_.get());
 }
 
 void System::start_tracking(int width, int height) {
@@ -83,6 +95,7 @@ System::~System() {
 
 void System::shutdown() {
   if (mapper_) mapper_->stop();
+  if (loop_closer_) loop_closer_->stop();
 }
 
 mapping::GlobalBaReport System::optimize_map(const mapping::GlobalBaOptions& options) {
@@ -157,6 +170,7 @@ SystemSummary System::summary() const {
   }
   s.relocalizations = tracker_->relocalizations();
   s.mapping = mapper_->stats();
+  if (loop_closer_) s.loop = loop_closer_->stats();
   std::vector<double> total(extract_ms_.size());
   for (std::size_t i = 0; i < total.size(); ++i)
     total[i] = extract_ms_[i] + track_ms_[i];

@@ -1,7 +1,8 @@
 #pragma once
 // The RGB-D SLAM system: tracking in the caller's thread, local mapping in one std::thread,
-// joined by the mapper's bounded blocking queue (the mapper is the tracker's keyframe sink); the
-// map shared under SharedMap::mutex. `tracking.wait_for_sink` makes it sequential.
+// joined by the mapper's bounded blocking queue (the mapper is the tracker's keyframe sink),
+// loop closing in another behind the mapper (its output sink; options.loop.enabled); the map
+// shared under SharedMap::mutex. `tracking.wait_for_sink` makes it sequential.
 // Construct, call track() per frame, then shutdown() (also done by the destructor) and read
 // the trajectory. Not copyable; track() must be called from one thread at a time.
 #include <memory>
@@ -11,6 +12,7 @@
 #include "slam/bow/vocabulary.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/core/trajectory.hpp"
+#include "slam/loop/loop_closer.hpp"
 #include "slam/map/shared_map.hpp"
 #include "slam/mapping/global_ba.hpp"
 #include "slam/mapping/local_mapper.hpp"
@@ -29,6 +31,7 @@ struct SystemSummary {
   std::size_t keyframes = 0, points = 0;
   int relocalizations = 0;
   mapping::MappingStats mapping;
+  loop::LoopStats loop;                            // empty when loop closing is off
   SampleStats extract_ms, track_ms, total_ms;      // per frame, tracking thread
   SampleStats pose_ms, local_map_ms, keyframe_ms;  // stages of track_ms
   std::string describe() const;
@@ -49,7 +52,8 @@ class System {
   // `image` 8-bit grey, or colour in the settings' Camera.RGB order; `depth` CV_32FC1 metres
   // (0 = invalid); timestamp in seconds.
   tracking::TrackingResult track(const cv::Mat& image, const cv::Mat& depth, double timestamp);
-  // Stops local mapping (aborting a running BA) and joins its thread. Idempotent.
+  // Stops local mapping (aborting a running BA) and joins its thread, then loop closing
+  // (aborting a global BA running in the background). Idempotent.
   void shutdown();
   // Global bundle adjustment of the finished map (shuts local mapping down first). For offline
   // mapping: the trajectory and the map then reflect all observations at once.
@@ -76,6 +80,7 @@ class System {
   features::ExtractorOptions extractor_;
   std::unique_ptr<map::SharedMap> shared_;
   std::unique_ptr<markers::MarkerDetector> detector_;
+  std::unique_ptr<loop::LoopCloser> loop_closer_;  // before mapper_: the mapper pushes into it
   std::unique_ptr<mapping::LocalMapper> mapper_;
   std::unique_ptr<tracking::Tracker> tracker_;
   std::vector<double> extract_ms_, track_ms_, pose_ms_, local_map_ms_, keyframe_ms_;

@@ -44,6 +44,14 @@ constexpr std::array kTunables{
   Tunable{"mapping.ba.iterations_refine", [](SystemOptions& o) -> Field { return &o.mapping.ba.iterations_refine; }},
   Tunable{"mapping.keyframe_culling", [](SystemOptions& o) -> Field { return &o.mapping.keyframe_culling; }},
   Tunable{"mapping.redundancy", [](SystemOptions& o) -> Field { return &o.mapping.redundancy; }},
+  Tunable{"loop.enabled", [](SystemOptions& o) -> Field { return &o.loop.enabled; }},
+  Tunable{"loop.min_consistency", [](SystemOptions& o) -> Field { return &o.loop.min_consistency; }},
+  Tunable{"loop.min_inliers", [](SystemOptions& o) -> Field { return &o.loop.min_inliers; }},
+  Tunable{"loop.max_drift_m", [](SystemOptions& o) -> Field { return &o.loop.max_drift_m; }},
+  Tunable{"loop.max_drift_per_m", [](SystemOptions& o) -> Field { return &o.loop.max_drift_per_m; }},
+  Tunable{"loop.max_rotation_drift", [](SystemOptions& o) -> Field { return &o.loop.max_rotation_drift; }},
+  Tunable{"loop.max_rotation_drift_per_m", [](SystemOptions& o) -> Field { return &o.loop.max_rotation_drift_per_m; }},
+  Tunable{"loop.global_ba", [](SystemOptions& o) -> Field { return &o.loop.global_ba; }},
   Tunable{"detect_markers", [](SystemOptions& o) -> Field { return &o.detect_markers; }},
 };
 // clang-format on
@@ -99,6 +107,7 @@ void apply_tuning(const settings::Settings& settings, SystemOptions& options) {
 void SystemOptions::check() const {
   tracking.check();
   mapping.check();
+  loop.check();
 }
 
 std::string SystemOptions::describe() const {

@@ -97,6 +97,7 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
       Stopwatch stage;
       if (state_ == TrackingState::kOk) {
         if (!shared_.map.keyframe(reference_)) update_local_map();
+        follow_reference_of_last_frame();
         ok = has_velocity_ && track_motion_model();
         if (!ok) ok = track_reference_keyframe();
       } else {
@@ -195,6 +196,13 @@ void Tracker::refine_rolling_shutter(int image_rows) {
   // A poorly tracked (blurred) frame gives a wrong rate: the compensation is undone when it costs
   // inliers (a ratio below 0.8 let fr1/rpy diverge; 1.0 undid half of the useful ones).
   if (after < options_.rolling_shutter_keep_ratio * before) current_ = std::move(uncompensated);
+}
+
+void Tracker::follow_reference_of_last_frame() {
+  if (!last_.has_pose || records_.empty() || !records_.back().tracked) return;
+  const FrameRecord& rec = records_.back();
+  if (const auto ref = shared_.map.keyframe_pose(rec.reference))
+    last_.cam_from_world = rec.cam_from_reference * *ref;
 }
 
 void Tracker::record_frame(bool tracked) {

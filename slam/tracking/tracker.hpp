@@ -110,6 +110,9 @@ class Tracker {
   // Rolling shutter: compensates current_'s keypoints with the rotation rate from last_ to
   // current_ and re-optimizes the pose (no-op for a global-shutter camera).
   void refine_rolling_shutter(int image_rows);
+  // ORB-SLAM2's UpdateLastFrame: the last frame keeps its pose relative to its reference
+  // keyframe, which local BA or a loop correction may have moved since (map lock held).
+  void follow_reference_of_last_frame();
   void record_frame(bool tracked);  // appends current_ to records_ (map lock held)
 
   map::SharedMap& shared_;

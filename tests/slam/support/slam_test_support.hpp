@@ -138,6 +138,11 @@ inline std::string map_problem(const map::Map& m) {
     for (KeyframeId other : kf.covisible_ordered) {
       if (!m.keyframe(other)) return "keyframe " + id(k) + " ordered with missing " + id(other);
     }
+    for (KeyframeId l : kf.loop_edges) {
+      const map::Keyframe* other = m.keyframe(l);
+      if (!other) return "keyframe " + id(k) + " has a loop edge to missing " + id(l);
+      if (!other->loop_edges.count(k)) return "loop edge " + id(k) + "-" + id(l) + " one-sided";
+    }
     for (KeyframeId c : kf.children) {
       const map::Keyframe* child = m.keyframe(c);
       if (!child) return "keyframe " + id(k) + " has missing child " + id(c);

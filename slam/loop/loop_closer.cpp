@@ -1,0 +1,215 @@
+#include "slam/loop/loop_closer.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <unordered_set>
+
+#include "slam/core/error.hpp"
+#include "slam/core/timing.hpp"
+#include "slam/loop/correction.hpp"
+#include "slam/mapping/ba_window.hpp"
+
+namespace coloc::slam::loop {
+
+void LoopOptions::check() const {
+  if (queue_capacity < 1) throw Error("LoopOptions.queue_capacity must be >= 1");
+  if (max_candidates < 1) throw Error("LoopOptions.max_candidates must be >= 1");
+  if (min_consistency < 0) throw Error("LoopOptions.min_consistency must be >= 0");
+  if (min_bow_matches < 3) throw Error("LoopOptions.min_bow_matches must be >= 3");
+  if (ransac_iterations < 1) throw Error("LoopOptions.ransac_iterations must be >= 1");
+  if (min_ransac_inliers < 3) throw Error("LoopOptions.min_ransac_inliers must be >= 3");
+  if (!(projection_radius_px > 0.0)) throw Error("LoopOptions.projection_radius_px must be > 0");
+  if (projection_max_distance < 0 || projection_max_distance > 256)
+    throw Error("LoopOptions.projection_max_distance must be in [0, 256]");
+  if (min_inliers < min_ransac_inliers)
+    throw Error("LoopOptions.min_inliers must be >= min_ransac_inliers");
+  if (!(max_drift_m >= 0.0)) throw Error("LoopOptions.max_drift_m must be >= 0");
+  if (!(max_drift_per_m >= 0.0)) throw Error("LoopOptions.max_drift_per_m must be >= 0");
+  if (!(max_rotation_drift >= 0.0)) throw Error("LoopOptions.max_rotation_drift must be >= 0");
+  if (!(max_rotation_drift_per_m >= 0.0))
+    throw Error("LoopOptions.max_rotation_drift_per_m must be >= 0");
+  if (!(fusion_radius_px > 0.0)) throw Error("LoopOptions.fusion_radius_px must be > 0");
+  if (strong_covisibility < 1) throw Error("LoopOptions.strong_covisibility must be >= 1");
+  if (graph_iterations < 1) throw Error("LoopOptions.graph_iterations must be >= 1");
+  ba.check();
+}
+
+LoopCloser::LoopCloser(map::SharedMap& map, LoopOptions options)
+    : shared_(map),
+      options_(std::move(options)),
+      queue_(options_.queue_capacity),
+      detector_(options_) {
+  options_.check();
+}
+
+LoopCloser::~LoopCloser() {
+  stop();
+}
+
+void LoopCloser::start(mapping::LocalMapper* mapper) {
+  mapper_ = mapper;
+  if (!thread_.joinable() && !stopping_) thread_ = std::thread([this] { run(); });
+}
+
+bool LoopCloser::push(map::KeyframeMessage message) {
+  {
+    std::lock_guard lock(state_mutex_);
+    ++pending_;
+  }
+  if (queue_.push(std::move(message))) return true;
+  std::lock_guard lock(state_mutex_);
+  --pending_;
+  state_cv_.notify_all();
+  return false;
+}
+
+bool LoopCloser::idle() const {
+  std::lock_guard lock(state_mutex_);
+  return pending_ == 0;
+}
+
+void LoopCloser::wait_idle() {
+  std::unique_lock lock(state_mutex_);
+  state_cv_.wait(lock, [&] { return pending_ == 0 || !thread_.joinable() || stopping_; });
+}
+
+void LoopCloser::stop() {
+  stopping_ = true;
+  queue_.close();
+  if (thread_.joinable()) thread_.join();
+  abort_ba_ = true;
+  if (ba_thread_.joinable()) ba_thread_.join();
+  std::lock_guard lock(state_mutex_);
+  state_cv_.notify_all();
+}
+
+LoopStats LoopCloser::stats() const {
+  std::lock_guard lock(state_mutex_);
+  return stats_;
+}
+
+void LoopCloser::wait_global_ba() {
+  if (ba_thread_.joinable()) ba_thread_.join();
+}
+
+void LoopCloser::run() {
+  for (;;) {
+    KeyframeId id;
+    if (!backlog_.empty()) {
+      id = backlog_.front();
+      backlog_.pop_front();
+    } else if (auto message = queue_.pop()) {
+      id = message->id;
+    } else {
+      break;
+    }
+    try {
+      process(id);
+    } catch (const std::exception& e) {
+      // A failed keyframe must not take the thread (and the program) down.
+      spdlog::error("loop closing: keyframe {}: {}", id.value(), e.what());
+    }
+    std::lock_guard lock(state_mutex_);
+    --pending_;
+    state_cv_.notify_all();
+  }
+}
+
+void LoopCloser::process(KeyframeId current) {
+  std::size_t examined = 0;
+  {
+    std::lock_guard lock(state_mutex_);
+    examined = static_cast<std::size_t>(++stats_.keyframes);
+  }
+  Detection detection;
+  {
+    std::lock_guard lock(shared_.mutex);
+    if (shared_.map.keyframe_count() < options_.min_keyframes) return;
+    if (last_loop_kf_count_ > 0 && examined < last_loop_kf_count_ + options_.keyframes_after_loop)
+      return;
+    if (!shared_.database.contains(current.value())) return;
+    detection = detector_.detect(shared_.map, shared_.database, current);
+  }
+  if (!detection.consistent.empty() && try_close(current, detection))
+    last_loop_kf_count_ = examined;
+}
+
+bool LoopCloser::try_close(KeyframeId current, const Detection& detection) {
+  std::vector<LoopCandidate> candidates = detection.consistent;
+  std::sort(candidates.begin(), candidates.end(),
+            [](const auto& a, const auto& b) { return a.score > b.score; });
+  for (const LoopCandidate& c : candidates) {
+    LoopVerification v;
+    {
+      std::lock_guard lock(shared_.mutex);
+      v = verify_loop(shared_.map, current, c.keyframe, options_, rng_);
+    }
+    {
+      std::lock_guard lock(state_mutex_);
+      ++stats_.candidates;
+      if (!v.accepted) ++stats_.rejected;
+      if (v.implausible) ++stats_.rejected_aliasing;
+    }
+    if (!v.accepted) {
+      spdlog::info(
+          "loop rejected: keyframe {} -> {}: {} (score {:.3f}, min {:.3f}, consistency {}, bow "
+          "{}, ransac {}, inliers {}, correction {:.3f} m / {:.3f} rad, allowed {:.3f} m / "
+          "{:.3f} rad over {:.2f} m)",
+          current.value(), c.keyframe.value(), v.rejection, c.score, detection.min_score,
+          c.consistency, v.bow_matches, v.ransac_inliers, v.inliers, v.correction_m,
+          v.correction_rad, v.allowed_m, v.allowed_rad, v.path_m);
+      continue;
+    }
+    correct(v, c);
+    return true;
+  }
+  return false;
+}
+
+void LoopCloser::pause_for_correction() {
+  abort_ba_ = true;
+  if (mapper_) mapper_->request_pause();
+  while (auto m = queue_.size() > 0 ? queue_.pop() : std::nullopt)
+    backlog_.push_back(m->id);
+  if (ba_thread_.joinable()) ba_thread_.join();
+  if (mapper_) mapper_->wait_paused();
+}
+
+void LoopCloser::correct(const LoopVerification& v, const LoopCandidate& c) {
+  Stopwatch watch;
+  pause_for_correction();
+  CorrectionReport report;
+  {
+    std::lock_guard lock(shared_.mutex);
+    report = correct_loop(shared_.map, v, options_);
+  }
+  if (mapper_) mapper_->resume();
+  detector_.reset();
+  LoopRecord r{v.current,      c.keyframe,       c.score,      c.consistency,
+               v.bow_matches,  v.ransac_inliers, v.inliers,    v.path_m,
+               v.correction_m, v.correction_rad, report.fused, watch.elapsed_ms()};
+  spdlog::info(
+      "loop closed: keyframe {} -> {} (score {:.3f}, consistency {}, bow {}, ransac {}, inliers "
+      "{}, correction {:.3f} m / {:.4f} rad over {:.2f} m of path, {} neighbours moved, {} "
+      "replaced, {} fused, {} loop connections, essential graph {} keyframes / {} edges, {:.1f} "
+      "ms)",
+      r.current.value(), r.candidate.value(), r.score, r.consistency, r.bow_matches,
+      r.ransac_inliers, r.inliers, r.correction_m, r.correction_rad, r.path_m,
+      report.corrected_neighbours, report.replaced, report.fused, report.loop_connections,
+      report.graph_keyframes, report.graph_edges, r.ms);
+  {
+    std::lock_guard lock(state_mutex_);
+    stats_.loops.push_back(r);
+  }
+  if (options_.global_ba && !stopping_) start_global_ba();
+}
+
+void LoopCloser::start_global_ba() {
+  if (ba_thread_.joinable()) ba_thread_.join();
+  abort_ba_ = false;
+  ba_running_ = true;
+  ba_thread_ = std::thread([this] { global_ba(); });
+}
+
+}  // namespace coloc::slam::loop

@@ -1,0 +1,107 @@
+#pragma once
+// Loop closing (ORB-SLAM's LoopClosing) in its own thread, fed by a bounded blocking queue of
+// the keyframes local mapping has finished (the closer is the mapper's output map::KeyframeSink).
+// Per keyframe: candidates and the consistency test (detection.hpp), geometric verification
+// with the aliasing test (verification.hpp); for an accepted loop, local mapping is paused and
+// the map corrected under the map lock (correction.hpp), then a global BA of the whole map runs
+// in a background thread. A new loop or stop() aborts that BA; a finished one is merged: what
+// it optimized takes its result, keyframes and points added meanwhile move with their spanning-
+// tree parent / reference keyframe. Every accepted or rejected loop is logged with its evidence.
+//
+// Threads: the KeyframeSink members, stats() and stop() are called from other threads; the
+// detector, verification and corrections run in the closer's thread, the global BA in its own.
+// Map edits hold SharedMap::mutex with local mapping paused (pauses nest, so the BA's merge and
+// a correction never release each other's pause); a correction first aborts and joins the BA.
+#include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <random>
+#include <thread>
+#include <vector>
+
+#include "slam/core/bounded_queue.hpp"
+#include "slam/loop/detection.hpp"
+#include "slam/loop/loop_options.hpp"
+#include "slam/loop/verification.hpp"
+#include "slam/map/keyframe_sink.hpp"
+#include "slam/map/shared_map.hpp"
+#include "slam/mapping/local_mapper.hpp"
+
+namespace coloc::slam::loop {
+
+struct LoopRecord {
+  KeyframeId current, candidate;
+  double score = 0.0;
+  int consistency = 0, bow_matches = 0, ransac_inliers = 0, inliers = 0;
+  double path_m = 0.0, correction_m = 0.0, correction_rad = 0.0;
+  int fused = 0;
+  double ms = 0.0;  // correction wall time (map locked, mapping paused)
+};
+
+struct LoopStats {
+  int keyframes = 0;          // keyframes examined
+  int candidates = 0;         // consistent candidates verified
+  int rejected = 0;           // of those, rejected by verification
+  int rejected_aliasing = 0;  // of those, by the plausibility (aliasing) test
+  std::vector<LoopRecord> loops;
+  int global_ba_runs = 0, global_ba_aborted = 0;
+  std::vector<double> global_ba_ms;
+};
+
+class LoopCloser final : public map::KeyframeSink {
+ public:
+  // `map` must outlive the closer.
+  LoopCloser(map::SharedMap& map, LoopOptions options);
+  ~LoopCloser() override;  // stop()
+  LoopCloser(const LoopCloser&) = delete;
+  LoopCloser& operator=(const LoopCloser&) = delete;
+
+  // `mapper` (may be null: nothing to pause, e.g. in tests) must outlive the closer.
+  void start(mapping::LocalMapper* mapper);
+  // map::KeyframeSink. push() blocks while the queue is full and is false after stop().
+  bool push(map::KeyframeMessage message) override;
+  bool idle() const override;
+  std::size_t queued() const override { return queue_.size(); }
+  bool accepting() const override { return true; }
+  void interrupt() override {}  // detection is short; a correction must not be cut
+  void wait_idle() override;
+  // Closes the queue, examines what is queued, aborts a running global BA, joins. Idempotent.
+  void stop();
+  LoopStats stats() const;
+  bool global_ba_running() const { return ba_running_; }
+  // Blocks until a running global BA has finished (merged or aborted).
+  void wait_global_ba();
+
+ private:
+  void run();
+  void process(KeyframeId current);
+  // Verifies the consistent candidates, best first; corrects with the first accepted.
+  bool try_close(KeyframeId current, const Detection& detection);
+  void correct(const LoopVerification& loop, const LoopCandidate& candidate);
+  // Pauses local mapping and stops the global BA without deadlock: the mapper may be blocked
+  // pushing into our full queue (and the BA's merge waiting for the mapper), so the queue is
+  // drained into backlog_ between the pause request and the waits.
+  void pause_for_correction();
+  void start_global_ba();
+  void global_ba();
+
+  map::SharedMap& shared_;
+  LoopOptions options_;
+  mapping::LocalMapper* mapper_ = nullptr;
+  BoundedQueue<map::KeyframeMessage> queue_;
+  std::deque<KeyframeId> backlog_;  // closer thread only (drained from queue_ while pausing)
+  std::thread thread_, ba_thread_;
+  std::atomic<bool> stopping_{false};
+  std::atomic<bool> abort_ba_{false};
+  std::atomic<bool> ba_running_{false};
+  mutable std::mutex state_mutex_;  // guards pending_, stats_; with state_cv_
+  std::condition_variable state_cv_;
+  int pending_ = 0;
+  LoopStats stats_;
+  LoopDetector detector_;    // closer thread only
+  std::mt19937 rng_{12345};  // closer thread only (RANSAC; fixed seed: reproducible runs)
+  std::size_t last_loop_kf_count_ = 0;  // keyframes examined at the last correction
+};
+
+}  // namespace coloc::slam::loop

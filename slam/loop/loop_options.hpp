@@ -1,0 +1,52 @@
+#pragma once
+// Options of loop closing (slam/loop): detection, verification, the plausibility test that
+// rejects perceptual aliasing, correction and the background global BA. Units: metres, radians,
+// pixels (level 0), Hamming distances between 256-bit ORB descriptors.
+#include <cstddef>
+
+#include "slam/optim/bundle_adjustment.hpp"
+
+namespace coloc::slam::loop {
+
+struct LoopOptions {
+  bool enabled = true;
+  std::size_t queue_capacity = 8;  // keyframes waiting for the loop closer
+
+  // Detection (ORB-SLAM's DetectLoop).
+  std::size_t min_keyframes = 10;         // map size before any detection
+  std::size_t keyframes_after_loop = 10;  // no detection this many keyframes after a correction
+  std::size_t max_candidates = 5;         // groups returned by the BoW database per keyframe
+  std::size_t group_neighbours = 10;      // covisible keyframes forming a candidate's group
+  int min_consistency = 3;  // consecutive keyframes whose candidate groups must overlap
+
+  // Geometric verification (SE3: RGB-D has metric scale).
+  int min_bow_matches = 20;
+  int ransac_iterations = 200;
+  int min_ransac_inliers = 20;
+  double projection_radius_px = 10.0;  // guided search around the RANSAC pose
+  int projection_max_distance = 50;
+  int min_inliers = 40;  // after guided search and pose refinement
+
+  // Plausibility: a loop correction cannot exceed what odometry can have drifted over the
+  // path between the two keyframes. Aliased places (a similar room elsewhere) need a
+  // correction the size of the distance between them, so this is what rejects them.
+  double max_drift_m = 0.10;               // allowed translation at zero path length
+  double max_drift_per_m = 0.05;           // plus this fraction of the path length
+  double max_rotation_drift = 0.10;        // radians at zero path length
+  double max_rotation_drift_per_m = 0.02;  // plus radians per metre of path
+
+  // Correction.
+  double fusion_radius_px = 4.0;
+  int strong_covisibility = 100;  // covisibility edges of the essential graph
+  int graph_iterations = 20;
+
+  // Global BA of the whole map in the background after each correction (aborted by the next
+  // loop or by stop()).
+  bool global_ba = true;
+  optim::BundleOptions ba{.iterations_robust = 10, .iterations_refine = 10};
+
+  // Throws coloc::Error naming the first invalid field.
+  void check() const;
+};
+
+}  // namespace coloc::slam::loop

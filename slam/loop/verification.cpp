@@ -1,0 +1,170 @@
+#include "slam/loop/verification.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "slam/core/align.hpp"
+#include "slam/matching/pose_support.hpp"
+#include "slam/matching/search.hpp"
+
+namespace coloc::slam::loop {
+namespace {
+
+constexpr double kChi2Stereo = 7.815;  // 95 % of chi2 with 3 degrees of freedom
+
+// One 3-D/3-D pair: a candidate-side map point (world) and the new keyframe's keypoint.
+struct Pair {
+  Eigen::Vector3d world;  // map point, metres
+  Eigen::Vector3d cam;    // keypoint unprojected with its depth, camera frame
+  std::size_t keypoint;
+  MapPointId point;
+};
+
+bool reprojects(const frame::Frame& f, const SE3& cam_from_world, const Pair& p) {
+  const auto& g = f.geometry();
+  const Eigen::Vector3d pc = cam_from_world * p.world;
+  if (pc.z() <= 0.0) return false;
+  const Eigen::Vector2d uv = g.project(pc);
+  const Eigen::Vector2d e = f.pixel(p.keypoint) - uv;
+  const double er = f.u_right[p.keypoint] - (uv.x() - g.bf / pc.z());
+  const double sigma2 = g.level_sigma2[static_cast<std::size_t>(f.level(p.keypoint))];
+  return (e.squaredNorm() + er * er) / sigma2 < kChi2Stereo;
+}
+
+// RANSAC over minimal 3-pair Umeyama fits, then a refit on the best consensus.
+std::vector<std::size_t> ransac_se3(const frame::Frame& f, const std::vector<Pair>& pairs,
+                                    int iterations, std::mt19937& rng, SE3& best_pose) {
+  std::vector<std::size_t> best;
+  if (pairs.size() < 3) return best;
+  std::uniform_int_distribution<std::size_t> pick(0, pairs.size() - 1);
+  for (int it = 0; it < iterations; ++it) {
+    const std::size_t a = pick(rng), b = pick(rng), c = pick(rng);
+    if (a == b || b == c || a == c) continue;
+    const AlignmentResult fit = align_points({pairs[a].world, pairs[b].world, pairs[c].world},
+                                             {pairs[a].cam, pairs[b].cam, pairs[c].cam});
+    if (!fit.usable) continue;
+    const SE3 pose = fit.dst_from_src.to_se3();
+    std::vector<std::size_t> inliers;
+    for (std::size_t i = 0; i < pairs.size(); ++i)
+      if (reprojects(f, pose, pairs[i])) inliers.push_back(i);
+    if (inliers.size() > best.size()) {
+      best = std::move(inliers);
+      best_pose = pose;
+    }
+  }
+  if (best.size() >= 3) {
+    std::vector<Eigen::Vector3d> src, dst;
+    for (std::size_t i : best) {
+      src.push_back(pairs[i].world);
+      dst.push_back(pairs[i].cam);
+    }
+    const AlignmentResult fit = align_points(src, dst);
+    if (fit.usable) best_pose = fit.dst_from_src.to_se3();
+  }
+  return best;
+}
+
+int inlier_count(const frame::Frame& f) {
+  int n = 0;
+  for (std::size_t i = 0; i < f.size(); ++i)
+    n += f.points[i].valid() && !f.outlier[i] ? 1 : 0;
+  return n;
+}
+
+// Verified pose against the estimate: is this within the drift odometry can have had?
+void plausibility(const map::Map& map, const map::Keyframe& cur, const LoopOptions& o,
+                  LoopVerification& v) {
+  const SE3 correction = v.corrected_cam_from_world.inverse() * cur.cam_from_world();
+  v.path_m = path_length(map, v.candidate, v.current);
+  v.correction_m = correction.translation().norm();
+  v.correction_rad = correction.so3().log().norm();
+  v.allowed_m = o.max_drift_m + o.max_drift_per_m * v.path_m;
+  v.allowed_rad = o.max_rotation_drift + o.max_rotation_drift_per_m * v.path_m;
+  if (v.correction_m > v.allowed_m || v.correction_rad > v.allowed_rad) {
+    v.rejection = "implausible correction (aliasing?)";
+    v.implausible = true;
+    return;
+  }
+  v.accepted = true;
+}
+
+}  // namespace
+
+double path_length(const map::Map& map, KeyframeId from, KeyframeId to) {
+  if (to < from) std::swap(from, to);
+  std::vector<KeyframeId> ids;
+  for (const auto& [id, kf] : map.keyframes())
+    if (id >= from && id <= to) ids.push_back(id);
+  std::sort(ids.begin(), ids.end());
+  double length = 0.0;
+  for (std::size_t i = 1; i < ids.size(); ++i)
+    length +=
+        (map.keyframe(ids[i])->camera_centre() - map.keyframe(ids[i - 1])->camera_centre()).norm();
+  return length;
+}
+
+LoopVerification verify_loop(const map::Map& map, KeyframeId current, KeyframeId candidate,
+                             const LoopOptions& o, std::mt19937& rng) {
+  LoopVerification v;
+  v.current = current;
+  v.candidate = candidate;
+  const map::Keyframe* cur = map.keyframe(current);
+  const map::Keyframe* cand = map.keyframe(candidate);
+  if (!cur || !cand) {
+    v.rejection = "keyframe gone";
+    return v;
+  }
+  // A copy of the new keyframe's frame receives the candidate-side matches.
+  frame::Frame f = cur->frame;
+  f.points.assign(f.size(), MapPointId::invalid());
+  f.outlier.assign(f.size(), 0);
+  v.bow_matches = matching::search_by_bow(*cand, f, map);
+  if (v.bow_matches < o.min_bow_matches) {
+    v.rejection = "too few BoW matches";
+    return v;
+  }
+  const auto& g = f.geometry();
+  std::vector<Pair> pairs;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (!f.points[i].valid() || !f.has_depth(i)) continue;
+    const double z = f.depth[i];
+    const Eigen::Vector2d uv = f.pixel(i);
+    pairs.push_back({map.point(f.points[i])->position,
+                     {(uv.x() - g.cx) * z / g.fx, (uv.y() - g.cy) * z / g.fy, z},
+                     i,
+                     f.points[i]});
+  }
+  SE3 pose;
+  const std::vector<std::size_t> inliers = ransac_se3(f, pairs, o.ransac_iterations, rng, pose);
+  v.ransac_inliers = static_cast<int>(inliers.size());
+  if (v.ransac_inliers < o.min_ransac_inliers) {
+    v.rejection = "too few RANSAC inliers";
+    return v;
+  }
+  // Keep the consensus only, refine, then look for the rest of the candidate's group.
+  f.points.assign(f.size(), MapPointId::invalid());
+  for (std::size_t i : inliers)
+    f.points[pairs[i].keypoint] = pairs[i].point;
+  f.cam_from_world = pose;
+  matching::optimize_frame_pose(f, map);
+  matching::drop_outliers(f);
+  std::vector<KeyframeId> group{candidate};
+  for (KeyframeId k : map.covisible(candidate, o.group_neighbours))
+    group.push_back(k);
+  for (KeyframeId k : group)
+    matching::search_keyframe_points(f, *map.keyframe(k), map, o.projection_radius_px,
+                                     o.projection_max_distance);
+  matching::optimize_frame_pose(f, map);
+  v.inliers = inlier_count(f);
+  matching::drop_outliers(f);
+  if (v.inliers < o.min_inliers) {
+    v.rejection = "too few inliers after the guided search";
+    return v;
+  }
+  v.corrected_cam_from_world = f.cam_from_world;
+  v.matches = f.points;
+  plausibility(map, *cur, o, v);
+  return v;
+}
+
+}  // namespace coloc::slam::loop

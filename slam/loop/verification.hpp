@@ -1,0 +1,43 @@
+#pragma once
+// Geometric verification of a loop candidate for RGB-D, where the scale is known (ORB-SLAM's
+// ComputeSim3 with the scale fixed): BoW matches between the new keyframe's keypoints and the
+// candidate's points; SE3 by RANSAC on the 3-D/3-D pairs (keypoint depth in the new keyframe
+// against the candidate's map point; Umeyama on 3 pairs, inliers by stereo-like reprojection
+// chi2); pose refinement; a guided projection search of the candidate group's points; a second
+// refinement. Then the plausibility test: the correction this implies (new keyframe's estimated
+// pose against the verified one) must be within what odometry can have drifted over the path
+// between the two keyframes, or the place is only a look-alike.
+//
+// The caller holds the map lock (nothing is written).
+#include <random>
+#include <string>
+#include <vector>
+
+#include "slam/loop/loop_options.hpp"
+#include "slam/map/map.hpp"
+
+namespace coloc::slam::loop {
+
+struct LoopVerification {
+  bool accepted = false;
+  std::string rejection;     // why not, when not accepted
+  bool implausible = false;  // geometry verified, but the correction exceeds the drift bound
+  KeyframeId current, candidate;
+  // The new keyframe's pose in the candidate's frame (the map as it was when the place was
+  // first seen), and per keypoint of the new keyframe the candidate-side point it matched.
+  SE3 corrected_cam_from_world;
+  std::vector<MapPointId> matches;
+  int bow_matches = 0, ransac_inliers = 0, inliers = 0;
+  double path_m = 0.0;                        // path length between the two keyframes
+  double correction_m = 0.0;                  // camera centre moved by the correction
+  double correction_rad = 0.0;                // rotation of the correction
+  double allowed_m = 0.0, allowed_rad = 0.0;  // the plausibility bounds at that path length
+};
+
+LoopVerification verify_loop(const map::Map& map, KeyframeId current, KeyframeId candidate,
+                             const LoopOptions& options, std::mt19937& rng);
+
+// Sum of the camera-centre steps between consecutive keyframes (by id) from `from` to `to`.
+double path_length(const map::Map& map, KeyframeId from, KeyframeId to);
+
+}  // namespace coloc::slam::loop
