@@ -228,7 +228,7 @@ void to_ply(const std::string& file, const std::string& out, bool local) {
     const Eigen::Quaterniond q =
         Eigen::Quaterniond(pose.rotation.w, pose.rotation.x, pose.rotation.y, pose.rotation.z)
             .normalized();
-    const Eigen::Matrix3d R = q.toRotationMatrix();
+    const Eigen::Matrix3d rotation = q.toRotationMatrix();
     const Eigen::Vector3d t(pose.translation.x, pose.translation.y, pose.translation.z);
     std::uint32_t mask = field_bit(PointField::kCartesianX) | field_bit(PointField::kCartesianY) |
                          field_bit(PointField::kCartesianZ);
@@ -254,7 +254,7 @@ void to_ply(const std::string& file, const std::string& out, bool local) {
           continue;
         }
         const Eigen::Vector3d p =
-            R * Eigen::Vector3d(b.cartesian_x[i], b.cartesian_y[i], b.cartesian_z[i]) + t;
+            rotation * Eigen::Vector3d(b.cartesian_x[i], b.cartesian_y[i], b.cartesian_z[i]) + t;
         const float xyz[3] = {static_cast<float>(p.x()), static_cast<float>(p.y()),
                               static_cast<float>(p.z())};
         rec.insert(rec.end(), reinterpret_cast<const char*>(xyz),

@@ -37,7 +37,7 @@ void LoopOptions::check() const {
 
 LoopCloser::LoopCloser(map::SharedMap& map, LoopOptions options)
     : shared_(map),
-      options_(std::move(options)),
+      options_(options),
       queue_(options_.queue_capacity),
       detector_(options_) {
   options_.check();

@@ -19,7 +19,6 @@
 namespace coloc::slam::mapdb {
 
 namespace fs = std::filesystem;
-using detail::TableReader;
 
 void LoadOptions::check() const {
   if (cache_mib < 1 || cache_mib > 4096) throw Error("LoadOptions: cache_mib not in 1..4096");

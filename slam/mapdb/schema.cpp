@@ -7,7 +7,7 @@ namespace coloc::slam::mapdb::detail {
 // Ids are SQLite INTEGERs (signed 64-bit): our ids are issued from 0 upwards, and an invalid id
 // (a keyframe without parent) is NULL. REAL columns hold IEEE doubles exactly; a NaN is NULL.
 const std::vector<TableSchema>& tables() {
-  static const std::vector<TableSchema> t = {
+  static const std::vector<TableSchema> kTables = {
       {"metadata", "key, value", "key",
        "CREATE TABLE metadata (key TEXT PRIMARY KEY NOT NULL, value TEXT NOT NULL) "
        "WITHOUT ROWID"},
@@ -57,7 +57,7 @@ const std::vector<TableSchema>& tables() {
        "CREATE TABLE erased_keyframes (id INTEGER PRIMARY KEY, parent INTEGER NOT NULL, "
        "cam_from_parent BLOB NOT NULL)"},
   };
-  return t;
+  return kTables;
 }
 
 const TableSchema& table(const std::string& name) {

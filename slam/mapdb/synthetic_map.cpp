@@ -30,6 +30,7 @@ std::shared_ptr<const frame::FrameGeometry> synthetic_geometry() {
   cam.cx = 319.5;
   cam.cy = 239.5;
   std::vector<float> scales;
+  scales.reserve(8);
   for (int l = 0; l < 8; ++l)
     scales.push_back(static_cast<float>(std::pow(1.2, l)));
   return std::make_shared<frame::FrameGeometry>(frame::FrameGeometry::make(cam, 40.0, 3.0, scales));
@@ -129,7 +130,7 @@ void add_observations(map::Map& m, const SyntheticMapOptions& o, KeyframeId k,
 }  // namespace
 
 map::Map make_synthetic_map(const SyntheticMapOptions& o,
-                            std::shared_ptr<const frame::FrameGeometry> geometry,
+                            const std::shared_ptr<const frame::FrameGeometry>& geometry,
                             const bow::Vocabulary* vocabulary,
                             const std::function<void(int, int)>& progress) {
   o.check();

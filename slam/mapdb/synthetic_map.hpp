@@ -36,7 +36,7 @@ std::shared_ptr<const frame::FrameGeometry> synthetic_geometry();
 // Deterministic for given options. With a vocabulary the keyframes get their BoW vectors (as
 // tracking computes them); without, they stay empty. `progress` gets (keyframes built, total).
 map::Map make_synthetic_map(const SyntheticMapOptions& options,
-                            std::shared_ptr<const frame::FrameGeometry> geometry,
+                            const std::shared_ptr<const frame::FrameGeometry>& geometry,
                             const bow::Vocabulary* vocabulary = nullptr,
                             const std::function<void(int, int)>& progress = {});
 

@@ -30,7 +30,7 @@ LocalMapper::LocalMapper(map::SharedMap& map, const bow::Vocabulary& vocabulary,
       vocabulary_(vocabulary),
       detector_(detector),
       marker_size_(marker_size),
-      options_(std::move(options)),
+      options_(options),
       output_(output),
       queue_(options_.queue_capacity) {
   options_.check();

@@ -38,7 +38,7 @@ std::string SystemSummary::describe() const {
 
 System::System(const settings::Settings& settings, const bow::Vocabulary& vocabulary,
                SystemOptions options)
-    : options_(std::move(options)),
+    : options_(options),
       settings_(settings),
       vocabulary_(vocabulary),
       extractor_{settings.orb.n_features, settings.orb.scale_factor, settings.orb.n_levels,
