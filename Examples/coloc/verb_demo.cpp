@@ -136,7 +136,7 @@ void demo_evaluation(const std::filesystem::path& data, const std::filesystem::p
       (out / "perturbed_groundtruth.txt").c_str());
 }
 
-// The pipeline on the digital twin: scan, markers, SLAM, evaluation.
+// The pipeline on the digital twin: scan, markers, SLAM, evaluation, the saved map.
 void demo_twin(const DemoArgs& a, const std::filesystem::path& out, int& step) {
   const std::filesystem::path twin = out / ("twin_" + a.preset);
   const std::string vocabulary = (source_dir() / "Vocabulary" / "coloc_orb_k10_L5.cvoc").string();
@@ -155,11 +155,15 @@ void demo_twin(const DemoArgs& a, const std::filesystem::path& out, int& step) {
             "--size", "0.1675", "--out", (out / "markers.yaml").string(), "--truth",
             (twin / "groundtruth" / "markers.txt").string()});
   step_header(++step, "RGB-D SLAM on the twin's walk, and its accuracy");
+  const std::string map_db = (out / "twin_map.db").string();
   run_verb({"map", "--sequence", (twin / "sequence").string(), "--config",
             (twin / "sequence" / "camera.yaml").string(), "--vocabulary", vocabulary,
-            "--trajectory", (out / "twin_trajectory.txt").string()});
+            "--trajectory", (out / "twin_trajectory.txt").string(), "--save", map_db});
   run_verb({"eval", "ate", (twin / "sequence" / "groundtruth.txt").string(),
             (out / "twin_trajectory.txt").string(), "--plot", (out / "twin_ate.png").string()});
+  step_header(++step, "The twin's map as one SQLite file: every check of a load, then its summary");
+  run_verb({"mapdb", "verify", map_db, "--vocabulary", vocabulary});
+  run_verb({"mapdb", "info", map_db});
 }
 
 // SLAM on a real recording (TUM fr1/xyz) with its motion-capture ground truth.

@@ -61,6 +61,7 @@ void print_info(const fs::path& file, const mapdb::MapInfo& i, bool json) {
                 {"observations", c.observations},
                 {"markers", c.markers},
                 {"covisibility_edges", c.covisibility},
+                {"loop_edges", c.loop_edges},
                 {"erased_keyframes", c.erased_keyframes},
                 {"bytes_per_keyframe", per_kf}});
     return;
@@ -76,7 +77,8 @@ void print_info(const fs::path& file, const mapdb::MapInfo& i, bool json) {
             << "\ncamera: " << camera << "\n"
             << "keyframes " << c.keyframes << ", map points " << c.points << ", observations "
             << c.observations << ", markers " << c.markers << ", covisibility edges "
-            << c.covisibility << ", erased keyframes " << c.erased_keyframes << "\n";
+            << c.covisibility << ", loop edges " << c.loop_edges << ", erased keyframes "
+            << c.erased_keyframes << "\n";
 }
 
 void run_verify(const fs::path& file, const fs::path& vocabulary_path, bool json) {

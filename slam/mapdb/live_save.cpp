@@ -81,7 +81,7 @@ class Prefilled {
 class Snapshot {
  public:
   struct Sizes {
-    std::size_t keyframes = 0, points = 0, observations = 0, edges = 0;
+    std::size_t keyframes = 0, points = 0, observations = 0, edges = 0, loop_edges = 0;
   };
   void prepare(const Sizes& s);
   // Under the lock: a plain copy, no sorting, no allocation beyond prepare()'s estimates.
@@ -96,12 +96,13 @@ class Snapshot {
   struct Entry {
     KeyframeRow row;
     std::size_t obs_begin = 0, obs_end = 0, edge_begin = 0, edge_end = 0;
-    std::size_t marker_begin = 0, marker_end = 0;
+    std::size_t marker_begin = 0, marker_end = 0, loop_begin = 0, loop_end = 0;
   };
   Prefilled<Entry> entries_;
   Prefilled<std::uint32_t> obs_keypoint_;
   Prefilled<MapPointId> obs_point_;
   Prefilled<std::pair<KeyframeId, int>> edges_;
+  Prefilled<KeyframeId> loop_edges_;  // each keyframe's in increasing order (from its std::set)
   std::vector<markers::MarkerObservation> markers_;
   Prefilled<PointRow> points_;
   std::vector<FeatureCopy> late_;  // keyframes created since step 1
@@ -113,6 +114,7 @@ void Snapshot::prepare(const Sizes& s) {
   obs_keypoint_.prepare(s.observations);
   obs_point_.prepare(s.observations);
   edges_.prepare(s.edges);
+  loop_edges_.prepare(s.loop_edges);
   points_.prepare(s.points);
 }
 
@@ -145,6 +147,10 @@ void Snapshot::take(const map::Map& map, const MapWriter& w) {
     for (const auto& edge : kf.covisibility)
       edges_.push(edge);
     e.edge_end = edges_.size();
+    e.loop_begin = loop_edges_.size();
+    for (KeyframeId other : kf.loop_edges)
+      loop_edges_.push(other);
+    e.loop_end = loop_edges_.size();
     e.marker_begin = markers_.size();
     markers_.insert(markers_.end(), kf.markers.begin(), kf.markers.end());
     e.marker_end = markers_.size();
@@ -178,6 +184,7 @@ void Snapshot::write(MapWriter& w, Counter& progress) {
     w.observations(e.row.id, obs_keypoint_.range(e.obs_begin, e.obs_end),
                    obs_point_.range(e.obs_begin, e.obs_end));
     w.covisibility(e.row.id, edges_.range(e.edge_begin, e.edge_end));
+    w.loop_edges(e.row.id, loop_edges_.range(e.loop_begin, e.loop_end));
     progress.advance();
   }
   for (const PointRow& p : points_.range(0, points_.size())) {
@@ -229,6 +236,7 @@ Snapshot::Sizes write_features_in_chunks(const map::Map& map, LockedRunner& lock
         if (!kf) continue;
         copies[n++].copy(*kf);
         sizes.edges += kf->covisibility.size();
+        sizes.loop_edges += kf->loop_edges.size();
         sizes.observations +=
             kf->frame.size() - static_cast<std::size_t>(std::count(
                                    kf->frame.points.begin(), kf->frame.points.end(), MapPointId()));

@@ -93,6 +93,7 @@ class Loader {
   void read_points();
   void read_observations();
   void read_covisibility();
+  void read_loop_edges();
   void read_erased();
   void restore();
   void rebuild_bow();
@@ -125,6 +126,7 @@ LoadedMap Loader::run() {
   read_points();
   read_observations();
   read_covisibility();
+  read_loop_edges();
   read_erased();
   restore();
   if (options_.rebuild_bow && vocabulary_) rebuild_bow();
@@ -351,6 +353,30 @@ void Loader::read_covisibility() {
     if (kf == keyframes_.end()) t.fail("keyframe_id", row, "no such keyframe");
     if (a == b || !keyframes_.count(b)) t.fail("other_id", row, "no such other keyframe");
     kf->second.covisibility[b] = static_cast<int>(t.row().column_integer(2));
+  }
+}
+
+// Schema version 2 on; a version-1 file has no loop edges. Each edge is stored once per
+// direction, both to keyframes of the map.
+void Loader::read_loop_edges() {
+  if (!has_table(file_.schema_version(), "loop_edges")) return;
+  TableReader t(file_, "loop_edges");
+  std::vector<std::pair<KeyframeId, KeyframeId>> rows;
+  while (t.next()) {
+    const KeyframeId a(t.id(0, "keyframe_id", "?", false));
+    const KeyframeId b(t.id(1, "other_id", "?", false));
+    const std::string row = row_of(a.value(), b.value());
+    auto kf = keyframes_.find(a);
+    if (kf == keyframes_.end()) t.fail("keyframe_id", row, "no such keyframe");
+    if (a == b || !keyframes_.count(b)) t.fail("other_id", row, "no such other keyframe");
+    kf->second.loop_edges.insert(b);
+    rows.emplace_back(a, b);
+  }
+  for (const auto& [a, b] : rows) {
+    if (!keyframes_.at(b).loop_edges.count(a))
+      file_.fail("loop_edges.other_id", row_of(a.value(), b.value()),
+                 "no reverse row " + row_of(b.value(), a.value()) +
+                     " (a loop edge is stored in both directions)");
   }
 }
 

@@ -9,11 +9,11 @@
 // size (no image of the file is built in memory).
 //
 // Loading checks the schema version, every table, every blob size, every reference
-// (observations, covisibility, spanning tree, erased-keyframe chain), the content checksums
-// and the vocabulary, then rebuilds what is derived: frame grids, children and covisibility
-// order, BoW vectors and the BoW database. A map saved and loaded equals the original field by
-// field. Every problem is a coloc::Error naming the file and the table (field "table.column")
-// and row; loading never writes.
+// (observations, covisibility, loop edges, spanning tree, erased-keyframe chain), the content
+// checksums and the vocabulary, then rebuilds what is derived: frame grids, children and
+// covisibility order, BoW vectors and the BoW database. A map saved and loaded equals the original
+// field by field. Every problem is a coloc::Error naming the file and the table (field
+// "table.column") and row; loading never writes.
 //
 // Thread-safety: functions are independent (one SQLite connection each). save_map() reads the
 // Map without locking: the caller keeps it unchanged meanwhile. save_live_map() is for a Map
@@ -36,8 +36,9 @@
 
 namespace coloc::slam::mapdb {
 
-// PRAGMA user_version of the files this build writes; it reads this version and older ones.
-constexpr int kSchemaVersion = 1;
+// PRAGMA user_version of the files this build writes; it reads this version and older ones
+// (version 1 has no `loop_edges` table: such a map loads without loop edges).
+constexpr int kSchemaVersion = 2;
 
 // What a map file says about itself (table `metadata`).
 struct MapMetadata {
@@ -98,9 +99,9 @@ SaveReport save_map(const map::Map& map, const MapMetadata& metadata,
 //  1. keyframe features (keypoints, descriptors, depth, u_right: by far the largest part, and
 //     never changed once a keyframe is in the Map) are copied a few keyframes per lock and
 //     written without the lock;
-//  2. one lock copies the rest, which is small (poses, tree, covisibility, keypoint -> point
-//     lists, markers, map points without their observation maps) and the features of keyframes
-//     created meanwhile: the snapshot, consistent as of this moment;
+//  2. one lock copies the rest, which is small (poses, tree, covisibility, loop edges,
+//     keypoint -> point lists, markers, map points without their observation maps) and the
+//     features of keyframes created meanwhile: the snapshot, consistent as of this moment;
 //  3. the snapshot is written without the lock, and features of keyframes erased since step 1
 //     are dropped. The file holds the map exactly as it was at step 2.
 SaveReport save_live_map(const map::Map& map, std::mutex& mutex, const MapMetadata& metadata,
@@ -130,6 +131,7 @@ LoadedMap load_map(const std::filesystem::path& path, const bow::Vocabulary& voc
 struct MapCounts {
   std::uint64_t keyframes = 0, points = 0, observations = 0, markers = 0, covisibility = 0,
                 erased_keyframes = 0, cameras = 0;
+  std::uint64_t loop_edges = 0;  // rows, one per direction (0 in a schema-1 file)
 };
 
 struct MapInfo {

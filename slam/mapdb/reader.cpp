@@ -1,5 +1,6 @@
 #include "slam/mapdb/reader.hpp"
 
+#include <algorithm>
 #include <set>
 
 #include "slam/core/error.hpp"
@@ -34,7 +35,8 @@ MapFile::MapFile(const fs::path& path, int cache_mib) : path_(path), db_(open_re
   while (names.next())
     present.insert(names.column_text(0));
   for (const TableSchema& t : tables()) {
-    if (!present.count(t.name))
+    // A table newer than the file's version is absent (and not read); one it should have is not.
+    if (!present.count(t.name) && has_table(std::max(static_cast<int>(version), 1), t.name))
       fail(t.name, "",
            std::string("table '") + t.name + "' is missing" +
                (ours ? "" : " (not a coloc map: wrong or no application_id)"));
@@ -68,6 +70,7 @@ MapCounts MapFile::counts() const {
   c.covisibility = n("covisibility");
   c.erased_keyframes = n("erased_keyframes");
   c.cameras = n("cameras");
+  if (has_table(schema_version_, "loop_edges")) c.loop_edges = n("loop_edges");
   return c;
 }
 
@@ -156,8 +159,18 @@ std::vector<std::string> integrity_problems(const fs::path& path) {
       problems.push_back(where + "integrity_check: " + e.message());
     }
   };
-  for (const TableSchema& t : tables())
-    check(std::string("PRAGMA integrity_check(") + t.name + ")", t.name);
+  // Tables a file of an older schema version lacks are skipped (MapFile checks the presence).
+  std::set<std::string> present;
+  try {
+    Statement names(db, "SELECT name FROM sqlite_master WHERE type = 'table'", "sqlite_master");
+    while (names.next())
+      present.insert(names.column_text(0));
+  } catch (const Error& e) {
+    problems.push_back(path.string() + ": table sqlite_master: " + e.message());
+  }
+  for (const TableSchema& t : tables()) {
+    if (present.count(t.name)) check(std::string("PRAGMA integrity_check(") + t.name + ")", t.name);
+  }
   if (problems.empty()) check("PRAGMA integrity_check", "");
   return problems;
 }

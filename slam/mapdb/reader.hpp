@@ -12,7 +12,7 @@
 namespace coloc::slam::mapdb::detail {
 
 // A map file opened read-only whose header was checked: application id, schema version not
-// newer than ours, every table present; its metadata entries are read.
+// newer than ours, every table of that version present; its metadata entries are read.
 class MapFile {
  public:
   MapFile(const std::filesystem::path& path, int cache_mib);

@@ -55,6 +55,7 @@ SaveReport save_map(const map::Map& map, const MapMetadata& metadata, const fs::
     w.markers(id, kf.markers);
     w.observations(id, kf.frame.points);
     w.covisibility(id, kf.covisibility);
+    w.loop_edges(id, kf.loop_edges);
     progress.advance();
   }
   for (MapPointId id : points) {

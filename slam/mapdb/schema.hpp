@@ -1,8 +1,8 @@
 #pragma once
-// The map file's schema, version 1 (internal to slam/mapdb; documented in the README's "Map
-// database" section). Every table is written and read with its columns in the order listed
-// here: INSERT binds and SELECT reads them in that order, which is also the order the content
-// checksums hash them in.
+// The map file's schema, version 2 (internal to slam/mapdb; documented in the README's "Map
+// database" section). Version 2 added `loop_edges`; a version-1 file has every other table. Every
+// table is written and read with its columns in the order listed here: INSERT binds and SELECT
+// reads them in that order, which is also the order the content checksums hash them in.
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -18,10 +18,13 @@ struct TableSchema {
   const char* columns;  // comma-separated, in binding order
   const char* key;      // ORDER BY of a full read (the primary key)
   const char* create;   // CREATE TABLE statement
+  int since;            // the schema version that added the table (older files lack it)
 };
 
 // Every table of the schema (metadata first), in the order a save creates them.
 const std::vector<TableSchema>& tables();
+// Whether a file of schema version `version` has table `name`.
+bool has_table(int version, const std::string& name);
 const TableSchema& table(const std::string& name);
 
 // "INSERT INTO t (columns) VALUES (?, ...)" and "SELECT columns FROM t ORDER BY key".

@@ -18,8 +18,8 @@ void SyntheticMapOptions::check() const {
     throw Error("SyntheticMapOptions: matched_fraction not in [0, 1]");
   if (!(depth_fraction >= 0.0 && depth_fraction <= 1.0))
     throw Error("SyntheticMapOptions: depth_fraction not in [0, 1]");
-  if (marker_every < 0 || erase_every < 0)
-    throw Error("SyntheticMapOptions: marker_every / erase_every negative");
+  if (marker_every < 0 || erase_every < 0 || loop_edges < 0)
+    throw Error("SyntheticMapOptions: marker_every / erase_every / loop_edges negative");
 }
 
 std::shared_ptr<const frame::FrameGeometry> synthetic_geometry() {
@@ -153,11 +153,21 @@ map::Map make_synthetic_map(const SyntheticMapOptions& o,
     m.update_connections(id);
     if (progress) progress(i + 1, o.keyframes);
   }
+  std::vector<KeyframeId> ids;
+  for (const auto& [id, kf] : m.keyframes())
+    ids.push_back(id);
+  std::sort(ids.begin(), ids.end());
+  // Loop l ties the keyframes at positions 1 + 2 l and n - 1 - 3 l (the first one stays out;
+  // loops that do not fit a small map are left out).
+  for (int l = 0; l < o.loop_edges; ++l) {
+    const auto a = static_cast<std::size_t>(1 + 2 * l);
+    const auto back = static_cast<std::size_t>(3 * l + 1);
+    if (a >= ids.size() || back >= ids.size() || a == ids.size() - back) continue;
+    const std::size_t b = ids.size() - back;
+    m.keyframe(ids[a])->loop_edges.insert(ids[b]);
+    m.keyframe(ids[b])->loop_edges.insert(ids[a]);
+  }
   if (o.erase_every > 0) {
-    std::vector<KeyframeId> ids;
-    for (const auto& [id, kf] : m.keyframes())
-      ids.push_back(id);
-    std::sort(ids.begin(), ids.end());
     for (std::size_t i = 1; i < ids.size(); ++i) {
       if (i % static_cast<std::size_t>(o.erase_every) == 0) m.erase_keyframe(ids[i]);
     }

@@ -3,8 +3,8 @@
 // habit: the generator lives in the library). Built through the Map's own editing API, so it
 // has what a real run leaves behind: keyframes with ORB-like keypoints (random descriptors,
 // pyramid levels, depth and virtual right coordinates), points observed by several keyframes,
-// covisibility, a spanning tree, markers, and optionally erased keyframes. The geometry is
-// meaningless (keypoints are random pixels); sizes and relations are what count.
+// covisibility, a spanning tree, loop edges, markers, and optionally erased keyframes. The geometry
+// is meaningless (keypoints are random pixels); sizes and relations are what count.
 //
 // Keyframe k sits at x = 0.1 k metres in the world, looking along +z (cam_from_world).
 #include <cstdint>
@@ -26,6 +26,9 @@ struct SyntheticMapOptions {
   double depth_fraction = 0.8;    // keypoints with a depth reading
   int marker_every = 10;          // every n-th keyframe sees two markers (0: none)
   int erase_every = 0;            // then every n-th keyframe is erased, as culling does (0: none)
+  // Loop closures between an early and a late keyframe (both sides' Keyframe::loop_edges, as
+  // loop closing adds them), made before erasing, so erased ones are handed to their parents.
+  int loop_edges = 3;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
 };

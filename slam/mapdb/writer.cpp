@@ -238,6 +238,25 @@ void MapWriter::covisibility(KeyframeId keyframe,
     edge(keyframe, other, weight);
 }
 
+void MapWriter::loop_edge(KeyframeId keyframe, KeyframeId other) {
+  Table& t = tables_.at("loop_edges");
+  Statement& s = begin_row(t);
+  s.integer(static_cast<std::int64_t>(keyframe.value()));
+  s.integer(static_cast<std::int64_t>(other.value()));
+  end_row(t);
+  ++counts_.loop_edges;
+}
+
+void MapWriter::loop_edges(KeyframeId keyframe, std::span<const KeyframeId> others) {
+  for (KeyframeId other : others)
+    loop_edge(keyframe, other);
+}
+
+void MapWriter::loop_edges(KeyframeId keyframe, const std::set<KeyframeId>& others) {
+  for (KeyframeId other : others)
+    loop_edge(keyframe, other);
+}
+
 void MapWriter::point(const PointRow& p) {
   Table& t = tables_.at("map_points");
   Statement& s = begin_row(t);

@@ -4,6 +4,7 @@
 // B-trees only grow at their right edge and the content checksums can be folded as they go.
 #include <map>
 #include <memory>
+#include <set>
 #include <span>
 #include <unordered_map>
 #include <vector>
@@ -71,6 +72,10 @@ class MapWriter {
                     std::span<const MapPointId> points);
   void covisibility(KeyframeId keyframe, const std::map<KeyframeId, int>& edges);
   void covisibility(KeyframeId keyframe, std::span<const std::pair<KeyframeId, int>> edges);
+  // The keyframe's loop edges, in increasing order of the other id (one row per direction: the
+  // other keyframe writes the reverse row).
+  void loop_edges(KeyframeId keyframe, std::span<const KeyframeId> others);
+  void loop_edges(KeyframeId keyframe, const std::set<KeyframeId>& others);
   void point(const PointRow& row);
   void erased(KeyframeId keyframe, const map::ErasedKeyframe& erased);
   // Writes the metadata (with counts and checksums), commits and closes the file. Throws if a
@@ -93,6 +98,7 @@ class MapWriter {
   void end_row(Table& t);
   void observation(KeyframeId keyframe, std::uint32_t keypoint, MapPointId point);
   void edge(KeyframeId keyframe, KeyframeId other, int weight);
+  void loop_edge(KeyframeId keyframe, KeyframeId other);
 
   Database db_;
   MapMetadata metadata_;

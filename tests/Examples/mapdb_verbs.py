@@ -81,6 +81,12 @@ def main():
         ok &= check(10, len(tum) == len(poses) and all(
             abs(float(a) - float(b)) < 1e-9
             for r, pose in zip(tum, poses) for a, b in zip(r[0].split(), pose)))
+        # Loop edges (schema 2): one row per direction, each closure once by the README's query.
+        loops = con.execute("SELECT keyframe_id, other_id FROM loop_edges "
+                            "WHERE keyframe_id < other_id ORDER BY keyframe_id").fetchall()
+        ok &= check(15, info["schema_version"] == 2 and info["loop_edges"] > 0
+                    and len(loops) * 2 == info["loop_edges"]
+                    == con.execute("SELECT COUNT(*) FROM loop_edges").fetchone()[0])
         con.close()
 
         # One damaged byte in the middle of the file (keyframe blobs fill most of it).
@@ -89,7 +95,10 @@ def main():
             f.write(data_with_flip(db))
         v = run([coloc, "mapdb", "verify", bad])
         print("damaged:", v.returncode, v.stdout.strip())
-        ok &= check(11, v.returncode == 1 and "bad.db" in v.stdout and "table" in v.stdout)
+        tables = ("metadata", "cameras", "keyframes", "keyframe_features", "markers",
+                  "map_points", "observations", "covisibility", "loop_edges", "erased_keyframes")
+        ok &= check(11, v.returncode == 1 and "bad.db" in v.stdout
+                    and any(t in v.stdout for t in tables))
 
         missing = os.path.join(tmp, "no_such_dir", "kf.txt")
         e = run([coloc, "mapdb", "export-trajectory", db, missing])

@@ -103,6 +103,7 @@ inline std::string keyframe_difference(const map::Keyframe& a, const map::Keyfra
   if (a.children != b.children) return "children";
   if (a.covisibility != b.covisibility) return "covisibility";
   if (a.covisible_ordered != b.covisible_ordered) return "covisible_ordered";
+  if (a.loop_edges != b.loop_edges) return "loop_edges";
   if (!same_value(a.marker_size, b.marker_size)) return "marker_size";
   if (a.markers.size() != b.markers.size()) return "marker count";
   for (std::size_t i = 0; i < a.markers.size(); ++i) {

@@ -7,6 +7,7 @@
 
 #include <fstream>
 #include <random>
+#include <set>
 
 #include "slam/core/error.hpp"
 #include "slam/mapdb/atomic_file.hpp"
@@ -51,8 +52,8 @@ std::string load_error(const fs::path& p) {
 
 bool names_a_table(const std::string& message) {
   for (const char* t : {"metadata", "cameras", "keyframes", "keyframe_features", "markers",
-                        "map_points", "observations", "covisibility", "erased_keyframes",
-                        "user_version", "application_id", "sqlite_master"}) {
+                        "map_points", "observations", "covisibility", "loop_edges",
+                        "erased_keyframes", "user_version", "application_id", "sqlite_master"}) {
     if (message.find(t) != std::string::npos) return true;
   }
   return false;
@@ -142,14 +143,23 @@ TEST_F(MapDbErrors, MissingTableIsNamed) {
   const std::string e = load_error(p);
   EXPECT_NE(e.find(p.string()), std::string::npos) << e;
   EXPECT_NE(e.find("table 'covisibility' is missing"), std::string::npos) << e;
+  // A version-2 file must have the table version 2 added (a version-1 file need not).
+  const fs::path no_loops = copy("no_loop_edges.db");
+  sql(no_loops, "DROP TABLE loop_edges");
+  const std::string l = load_error(no_loops);
+  EXPECT_NE(l.find(no_loops.string()), std::string::npos) << l;
+  EXPECT_NE(l.find("table 'loop_edges' is missing"), std::string::npos) << l;
+  EXPECT_FALSE(verify_map(no_loops).ok());
 }
 
 TEST_F(MapDbErrors, NewerSchemaIsRefused) {
   const fs::path p = copy("newer.db");
-  sql(p, "PRAGMA user_version = 2");
+  sql(p, "PRAGMA user_version = " + std::to_string(kSchemaVersion + 1));
   const std::string e = load_error(p);
   EXPECT_NE(e.find(p.string()), std::string::npos) << e;
-  EXPECT_NE(e.find("schema version 2 is newer"), std::string::npos) << e;
+  EXPECT_NE(e.find("schema version " + std::to_string(kSchemaVersion + 1) + " is newer"),
+            std::string::npos)
+      << e;
   EXPECT_THROW(read_map_info(p), Error);
 }
 
@@ -204,6 +214,65 @@ TEST_F(MapDbErrors, BrokenReferencesNameTableColumnAndRow) {
   const VerifyReport v = verify_map(missing);
   ASSERT_FALSE(v.ok());
   EXPECT_NE(v.problems.back().find("observations.point_id"), std::string::npos);
+}
+
+// Loop edges with sound checksums but a missing reverse row or a missing keyframe (written
+// through the internal writer): named by table, column and row.
+TEST_F(MapDbErrors, BrokenLoopEdgesNameTableColumnAndRow) {
+  const map::Keyframe& first = *map_.keyframe(map_.first_keyframe());
+  const map::Keyframe* second = nullptr;
+  for (const auto& [id, kf] : map_.keyframes()) {
+    if (first.id < id && (!second || id < second->id)) second = &kf;
+  }
+  ASSERT_NE(second, nullptr);
+  // Keyframes `first` and `second` (a child of first); loop edges first -> other, and the
+  // reverse one when `both_sides`.
+  auto write = [&](const fs::path& p, KeyframeId other, bool both_sides) {
+    AtomicFile out(p);
+    detail::MapWriter w(out.temp_path(), {}, test::test_metadata());
+    detail::EncodedFeatures f;
+    for (const map::Keyframe* kf : {&first, second}) {
+      f.encode(kf->id, kf->frame);
+      w.features(f);
+      detail::KeyframeRow row = detail::KeyframeRow::of(*kf);
+      row.parent = kf == &first ? KeyframeId() : first.id;
+      w.keyframe(row);
+      if (kf == &first) w.loop_edges(kf->id, std::set<KeyframeId>{other});
+      if (kf == second && both_sides) w.loop_edges(kf->id, std::set<KeyframeId>{first.id});
+    }
+    w.finish(first.id, second->id.value() + 1, 100);
+    out.commit(false);
+  };
+  const std::string row = "row (" + std::to_string(first.id.value()) + ", ";
+
+  const fs::path good = dir_ / "loop_good.db";
+  write(good, second->id, true);
+  const LoadedMap loaded = load_map(good, test_support::vocabulary());
+  EXPECT_EQ(loaded.map.keyframe(first.id)->loop_edges, std::set<KeyframeId>{second->id});
+  EXPECT_EQ(loaded.map.keyframe(second->id)->loop_edges, std::set<KeyframeId>{first.id});
+  EXPECT_EQ(read_map_info(good).counts.loop_edges, 2u);
+
+  const fs::path one_sided = dir_ / "loop_one_sided.db";
+  write(one_sided, second->id, false);
+  std::string e = load_error(one_sided);
+  EXPECT_NE(e.find(one_sided.string()), std::string::npos) << e;
+  EXPECT_NE(e.find("loop_edges.other_id"), std::string::npos) << e;
+  EXPECT_NE(e.find(row + std::to_string(second->id.value()) + ")"), std::string::npos) << e;
+  EXPECT_NE(e.find("no reverse row"), std::string::npos) << e;
+  VerifyReport v = verify_map(one_sided);
+  ASSERT_FALSE(v.ok());
+  EXPECT_NE(v.problems.back().find("loop_edges.other_id"), std::string::npos);
+
+  const fs::path missing = dir_ / "loop_missing.db";
+  write(missing, KeyframeId(999), false);
+  e = load_error(missing);
+  EXPECT_NE(e.find(missing.string()), std::string::npos) << e;
+  EXPECT_NE(e.find("loop_edges.other_id"), std::string::npos) << e;
+  EXPECT_NE(e.find(row + "999)"), std::string::npos) << e;
+  EXPECT_NE(e.find("no such other keyframe"), std::string::npos) << e;
+  v = verify_map(missing);
+  ASSERT_FALSE(v.ok());
+  EXPECT_NE(v.problems.back().find("loop_edges.other_id"), std::string::npos);
 }
 
 TEST_F(MapDbErrors, FailedSaveKeepsThePreviousFile) {

@@ -1,10 +1,12 @@
 // Save -> load gives the same map, field by field: synthetic maps, a map from a real SLAM run,
 // a live save while another thread edits the map, and the exports that read without loading.
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
 #include <atomic>
 #include <thread>
 
+#include "slam/mapdb/metadata.hpp"
 #include "slam/synthetic/synthetic_scene.hpp"
 #include "slam/system/system.hpp"
 #include "tests/slam/mapdb/map_compare.hpp"
@@ -14,8 +16,44 @@
 namespace coloc::slam::mapdb {
 namespace {
 
+namespace fs = std::filesystem;
 using test::map_difference;
 using test::same_bits;
+
+// Loop edges of the map, one per direction (as the file stores them).
+std::size_t loop_edge_rows(const map::Map& m) {
+  std::size_t n = 0;
+  for (const auto& [id, kf] : m.keyframes())
+    n += kf.loop_edges.size();
+  return n;
+}
+
+// Turns a map file this build wrote into the file schema version 1 was: no `loop_edges` table,
+// no count/checksum entries for it (metadata checksum recomputed), user_version 1. Every other
+// table of version 1 is the same.
+void make_schema_version_1(const fs::path& p) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(p.c_str(), &db), SQLITE_OK);
+  auto exec = [&](const std::string& statement) {
+    EXPECT_EQ(sqlite3_exec(db, statement.c_str(), nullptr, nullptr, nullptr), SQLITE_OK)
+        << statement << ": " << sqlite3_errmsg(db);
+  };
+  exec("DROP TABLE loop_edges");
+  exec("DELETE FROM metadata WHERE key IN ('count.loop_edges', 'checksum.loop_edges')");
+  detail::MetadataEntries entries;
+  sqlite3_stmt* s = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT key, value FROM metadata", -1, &s, nullptr), SQLITE_OK);
+  while (sqlite3_step(s) == SQLITE_ROW) {
+    entries[reinterpret_cast<const char*>(sqlite3_column_text(s, 0))] =
+        reinterpret_cast<const char*>(sqlite3_column_text(s, 1));
+  }
+  sqlite3_finalize(s);
+  exec("UPDATE metadata SET value = '" + detail::hex64(detail::metadata_checksum(entries)) +
+       "' WHERE key = 'checksum.metadata'");
+  exec("PRAGMA user_version = 1");
+  exec("VACUUM");
+  sqlite3_close(db);
+}
 
 void expect_same_metadata(const MapMetadata& a, const MapMetadata& b) {
   EXPECT_EQ(a.vocabulary_checksum, b.vocabulary_checksum);
@@ -56,6 +94,7 @@ void expect_same_database(const map::Map& m, const bow::BowDatabase& a, const bo
 TEST(MapDb, SaveLoadIsIdenticalFieldByField) {
   const map::Map original = test::small_map();
   ASSERT_FALSE(original.erased_keyframes().empty());
+  ASSERT_GT(loop_edge_rows(original), 0u);
   ASSERT_EQ(test_support::map_problem(original), "");
   const auto path = testing::temp_dir("mapdb_roundtrip") / "map.db";
   const MapMetadata metadata = test::test_metadata();
@@ -64,6 +103,9 @@ TEST(MapDb, SaveLoadIsIdenticalFieldByField) {
   EXPECT_EQ(saved.points, original.point_count());
   EXPECT_GT(saved.markers, 0u);
   EXPECT_EQ(saved.bytes, std::filesystem::file_size(path));
+  const MapInfo info = read_map_info(path);
+  EXPECT_EQ(info.schema_version, kSchemaVersion);
+  EXPECT_EQ(info.counts.loop_edges, loop_edge_rows(original));
 
   LoadedMap loaded = load_map(path, test_support::vocabulary());
   EXPECT_EQ(map_difference(original, loaded.map), "");
@@ -90,6 +132,42 @@ TEST(MapDb, SaveLoadIsIdenticalFieldByField) {
   const MapInfo i1 = read_map_info(path), i2 = read_map_info(again);
   EXPECT_EQ(i1.counts.observations, i2.counts.observations);
   EXPECT_EQ(map_difference(original, load_map(again, test_support::vocabulary()).map), "");
+}
+
+// A file of schema version 1 (before loop edges were stored) still loads and verifies, without
+// loop edges; saving it again writes the current version.
+TEST(MapDb, SchemaVersion1FileLoadsWithoutLoopEdges) {
+  const map::Map original = test::small_map(6, 24);
+  ASSERT_GT(loop_edge_rows(original), 0u);
+  const fs::path dir = testing::temp_dir("mapdb_v1");
+  const fs::path path = dir / "v1.db";
+  save_map(original, test::test_metadata(), path);
+  make_schema_version_1(path);
+  const MapInfo info = read_map_info(path);
+  EXPECT_EQ(info.schema_version, 1);
+  EXPECT_EQ(info.counts.loop_edges, 0u);
+  EXPECT_EQ(info.counts.keyframes, original.keyframe_count());
+  const VerifyReport v = verify_map(path, &test_support::vocabulary());
+  EXPECT_TRUE(v.ok()) << (v.problems.empty() ? "" : v.problems.front());
+
+  const LoadedMap loaded = load_map(path, test_support::vocabulary());
+  EXPECT_EQ(loop_edge_rows(loaded.map), 0u);
+  map::Map expected = original;
+  std::vector<KeyframeId> ids;
+  for (const auto& [id, kf] : expected.keyframes())
+    ids.push_back(id);
+  for (KeyframeId id : ids)
+    expected.keyframe(id)->loop_edges.clear();
+  EXPECT_EQ(map_difference(expected, loaded.map), "");
+  EXPECT_EQ(map_difference(loaded.map, expected), "");
+  // Without the clearing above, the comparison sees the loss.
+  EXPECT_NE(map_difference(original, loaded.map), "");
+
+  const fs::path again = dir / "v2.db";
+  save_map(loaded.map, loaded.metadata, again);
+  EXPECT_EQ(read_map_info(again).schema_version, kSchemaVersion);
+  EXPECT_TRUE(verify_map(again, &test_support::vocabulary()).ok());
+  EXPECT_EQ(map_difference(expected, load_map(again, test_support::vocabulary()).map), "");
 }
 
 TEST(MapDb, EmptyMapRoundTrips) {
@@ -178,7 +256,8 @@ TEST(MapDb, LiveSaveIsConsistentWhileAnotherThreadEditsTheMap) {
   map::Map m = test::small_map(5, 40);
   std::mutex mutex;
   std::atomic<bool> done{false};
-  // Tracking and mapping as the save sees them: new keyframes, culled keyframes, moved poses.
+  // Tracking, mapping and loop closing as the save sees them: new keyframes, culled keyframes,
+  // moved poses, loop edges.
   std::thread editor([&] {
     for (int step = 0; step < 300; ++step) {
       {
@@ -187,7 +266,12 @@ TEST(MapDb, LiveSaveIsConsistentWhileAnotherThreadEditsTheMap) {
         for (const auto& [id, kf] : m.keyframes())
           ids.push_back(id);
         std::sort(ids.begin(), ids.end());
-        add_copy(m, ids.back());
+        const KeyframeId added = add_copy(m, ids.back());
+        if (step % 10 == 0) {  // a loop closed between the new keyframe and an older one
+          const KeyframeId old = ids[ids.size() / 2];
+          m.keyframe(added)->loop_edges.insert(old);
+          m.keyframe(old)->loop_edges.insert(added);
+        }
         if (step % 4 == 0 && ids.size() > 30)
           m.erase_keyframe(ids[1 + static_cast<std::size_t>(step) % 8]);
         m.keyframe(ids.back())->frame.cam_from_world.translation().x() += 0.001;
@@ -223,7 +307,8 @@ TEST(MapDb, LiveSaveIsConsistentWhileAnotherThreadEditsTheMap) {
     ++compared;
   }
   EXPECT_GT(compared, 10u);
-  // Without concurrent edits, a live save equals a plain one.
+  // Without concurrent edits, a live save equals a plain one (loop edges included).
+  EXPECT_GT(loop_edge_rows(m), 0u);
   save_live_map(m, mutex, test::test_metadata(), path, options);
   EXPECT_EQ(map_difference(m, load_map(path, test_support::vocabulary()).map), "");
 }
