@@ -36,10 +36,7 @@ void LoopOptions::check() const {
 }
 
 LoopCloser::LoopCloser(map::SharedMap& map, LoopOptions options)
-    : shared_(map),
-      options_(options),
-      queue_(options_.queue_capacity),
-      detector_(options_) {
+    : shared_(map), options_(options), queue_(options_.queue_capacity), detector_(options_) {
   options_.check();
 }
 
@@ -53,25 +50,15 @@ void LoopCloser::start(mapping::LocalMapper* mapper) {
 }
 
 bool LoopCloser::push(map::KeyframeMessage message) {
-  {
-    std::lock_guard lock(state_mutex_);
-    ++pending_;
-  }
-  if (queue_.push(std::move(message))) return true;
-  std::lock_guard lock(state_mutex_);
-  --pending_;
-  state_cv_.notify_all();
-  return false;
+  return queue_.push(std::move(message));
 }
 
 bool LoopCloser::idle() const {
-  std::lock_guard lock(state_mutex_);
-  return pending_ == 0;
+  return queue_.idle();
 }
 
 void LoopCloser::wait_idle() {
-  std::unique_lock lock(state_mutex_);
-  state_cv_.wait(lock, [&] { return pending_ == 0 || !thread_.joinable() || stopping_; });
+  queue_.wait_idle();
 }
 
 void LoopCloser::stop() {
@@ -80,8 +67,6 @@ void LoopCloser::stop() {
   if (thread_.joinable()) thread_.join();
   abort_ba_ = true;
   if (ba_thread_.joinable()) ba_thread_.join();
-  std::lock_guard lock(state_mutex_);
-  state_cv_.notify_all();
 }
 
 LoopStats LoopCloser::stats() const {
@@ -110,9 +95,7 @@ void LoopCloser::run() {
       // A failed keyframe must not take the thread (and the program) down.
       spdlog::error("loop closing: keyframe {}: {}", id.value(), e.what());
     }
-    std::lock_guard lock(state_mutex_);
-    --pending_;
-    state_cv_.notify_all();
+    queue_.finished();
   }
 }
 

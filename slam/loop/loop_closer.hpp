@@ -20,7 +20,7 @@
 #include <thread>
 #include <vector>
 
-#include "slam/core/bounded_queue.hpp"
+#include "slam/core/stage_queue.hpp"
 #include "slam/loop/detection.hpp"
 #include "slam/loop/loop_options.hpp"
 #include "slam/loop/verification.hpp"
@@ -89,15 +89,13 @@ class LoopCloser final : public map::KeyframeSink {
   map::SharedMap& shared_;
   LoopOptions options_;
   mapping::LocalMapper* mapper_ = nullptr;
-  BoundedQueue<map::KeyframeMessage> queue_;
+  StageQueue<map::KeyframeMessage> queue_;
   std::deque<KeyframeId> backlog_;  // closer thread only (drained from queue_ while pausing)
   std::thread thread_, ba_thread_;
   std::atomic<bool> stopping_{false};
   std::atomic<bool> abort_ba_{false};
   std::atomic<bool> ba_running_{false};
-  mutable std::mutex state_mutex_;  // guards pending_, stats_; with state_cv_
-  std::condition_variable state_cv_;
-  int pending_ = 0;
+  mutable std::mutex state_mutex_;  // guards stats_
   LoopStats stats_;
   LoopDetector detector_;    // closer thread only
   std::mt19937 rng_{12345};  // closer thread only (RANSAC; fixed seed: reproducible runs)

@@ -45,27 +45,15 @@ void LocalMapper::start() {
 }
 
 bool LocalMapper::push(map::KeyframeMessage message) {
-  {
-    std::lock_guard lock(state_mutex_);
-    ++pending_;
-  }
-  if (queue_.push(std::move(message))) return true;
-  std::lock_guard lock(state_mutex_);
-  --pending_;
-  state_cv_.notify_all();
-  return false;
+  return queue_.push(std::move(message));
 }
 
 bool LocalMapper::idle() const {
-  std::lock_guard lock(state_mutex_);
-  return pending_ == 0;
+  return queue_.idle();
 }
 
 void LocalMapper::wait_idle() {
-  {
-    std::unique_lock lock(state_mutex_);
-    state_cv_.wait(lock, [&] { return pending_ == 0 || !thread_.joinable() || stopping_; });
-  }
+  queue_.wait_idle();
   // Sequential mode means the whole chain behind tracking has finished the keyframe.
   if (output_) output_->wait_idle();
 }
@@ -136,10 +124,12 @@ void LocalMapper::run() {
     }
     // The stage behind mapping (a loop closer) sees keyframes in the order they were mapped.
     if (output_ && !stopping_) output_->push({message->id, {}});
-    std::lock_guard lock(state_mutex_);
-    processing_ = false;
-    --pending_;
-    state_cv_.notify_all();
+    {
+      std::lock_guard lock(state_mutex_);
+      processing_ = false;
+      state_cv_.notify_all();
+    }
+    queue_.finished();
   }
 }
 

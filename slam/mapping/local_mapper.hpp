@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "slam/bow/vocabulary.hpp"
-#include "slam/core/bounded_queue.hpp"
+#include "slam/core/stage_queue.hpp"
 #include "slam/map/keyframe_sink.hpp"
 #include "slam/map/shared_map.hpp"
 #include "slam/optim/bundle_adjustment.hpp"
@@ -109,14 +109,13 @@ class LocalMapper final : public map::KeyframeSink {
   double marker_size_;
   LocalMappingOptions options_;
   map::KeyframeSink* output_;
-  BoundedQueue<map::KeyframeMessage> queue_;
+  StageQueue<map::KeyframeMessage> queue_;
   std::thread thread_;
   std::atomic<bool> abort_ba_{false};
   std::atomic<bool> stopping_{false};
   std::atomic<bool> pause_requested_{false};
-  mutable std::mutex state_mutex_;    // guards pending_, processing_, stats_; with state_cv_
-  std::condition_variable state_cv_;  // pending_/processing_ changed, resume or stop
-  int pending_ = 0;                   // pushed but not yet processed
+  mutable std::mutex state_mutex_;    // guards processing_, stats_; with state_cv_
+  std::condition_variable state_cv_;  // processing_ changed, resume or stop
   int pause_requests_ = 0;            // pause()/request_pause() calls not yet resumed
   bool processing_ = false;           // the mapper thread has a keyframe in hand
   MappingStats stats_;

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "slam/core/bounded_queue.hpp"
+#include "slam/core/stage_queue.hpp"
 
 namespace coloc {
 namespace {
@@ -47,6 +48,29 @@ TEST(BoundedQueue, CloseWakesABlockedConsumerAndProducer) {
   full.close();
   consumer.join();
   producer.join();
+}
+
+TEST(StageQueue, IdleOnlyWhenEveryItemIsFinished) {
+  StageQueue<int> stage(2);
+  EXPECT_TRUE(stage.idle());
+  ASSERT_TRUE(stage.push(1));
+  EXPECT_FALSE(stage.idle());
+  ASSERT_EQ(stage.pop(), 1);
+  EXPECT_FALSE(stage.idle());  // popped but still in the consumer's hands
+  std::thread consumer([&] { stage.finished(); });
+  stage.wait_idle();
+  consumer.join();
+  EXPECT_TRUE(stage.idle());
+}
+
+TEST(StageQueue, CloseRefusesPushesAndWakesAnIdleWaiter) {
+  StageQueue<int> stage(2);
+  ASSERT_TRUE(stage.push(1));
+  std::thread closer([&] { stage.close(); });
+  stage.wait_idle();  // returns: closed, although the item was never finished
+  closer.join();
+  EXPECT_FALSE(stage.push(2));
+  EXPECT_EQ(stage.size(), 1u);  // the refused item was not counted or queued
 }
 
 }  // namespace
