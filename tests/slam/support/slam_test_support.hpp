@@ -93,14 +93,18 @@ inline ProjectedKeyframe projected_keyframe(map::Map& m, const std::vector<Eigen
     if (pc.z() <= 0.1) continue;
     const Eigen::Vector2d uv = geometry->project(pc);
     if (!geometry->in_bounds(uv) || uv.x() < 1 || uv.y() < 1) continue;
+    // The depth sits at the rounded pixel, which must be inside the image too (x = 639.6 is
+    // in bounds, its pixel 640 is not).
+    const int col = static_cast<int>(std::lround(uv.x()));
+    const int row = static_cast<int>(std::lround(uv.y()));
+    if (col >= depth_image.cols || row >= depth_image.rows) continue;
     features::Keypoint kp;
     kp.x = kp.ux = static_cast<float>(uv.x());
     kp.y = kp.uy = static_cast<float>(uv.y());
     out.keypoint_of_point[i] = static_cast<int>(f.keypoints.size());
     f.keypoints.push_back(kp);
     f.descriptors.push_back(descriptors[i]);
-    depth_image.at<float>(static_cast<int>(std::lround(uv.y())),
-                          static_cast<int>(std::lround(uv.x()))) = static_cast<float>(pc.z());
+    depth_image.at<float>(row, col) = static_cast<float>(pc.z());
   }
   out.keyframe.id = m.next_keyframe_id();
   out.keyframe.frame = frame::Frame(FrameId(out.keyframe.id.value()), 0.0, std::move(f),
