@@ -105,9 +105,9 @@ int solve(const optim::BundleProblem& problem, State& s, const optim::Intrinsics
     double* pose = pose_block(ob.pose);
     double* point = s.points[ob.point].data();
     if (ob.u_right >= 0.0) {
-      cp.AddResidualBlock(new optim::StereoReprojectionCost(
-                              k, {ob.pixel.x(), ob.pixel.y(), ob.u_right}, inv_sigma),
-                          new ceres::HuberLoss(delta), pose, point);
+      cp.AddResidualBlock(
+          new optim::StereoReprojectionCost(k, {ob.pixel.x(), ob.pixel.y(), ob.u_right}, inv_sigma),
+          new ceres::HuberLoss(delta), pose, point);
     } else {
       cp.AddResidualBlock(new optim::MonoReprojectionCost(k, ob.pixel, inv_sigma),
                           new ceres::HuberLoss(delta), pose, point);
@@ -231,7 +231,8 @@ void MarkerBaOptions::check() const {
   if (!(marker_sigma_px > 0.0))
     throw Error("must be positive (pixels)", {.field = "marker_sigma_px"});
   if (!(marker_weight >= 0.0)) throw Error("must be >= 0", {.field = "marker_weight"});
-  if (!(marker_gate_px > 0.0)) throw Error("must be positive (pixels)", {.field = "marker_gate_px"});
+  if (!(marker_gate_px > 0.0))
+    throw Error("must be positive (pixels)", {.field = "marker_gate_px"});
   if (threads < 1) throw Error("must be >= 1", {.field = "threads"});
 }
 

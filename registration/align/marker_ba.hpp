@@ -36,14 +36,14 @@
 namespace coloc::registration::align {
 
 struct MarkerBaOptions {
-  int iterations = 20;       // Levenberg-Marquardt iterations per pass
-  int max_rounds = 3;        // passes at most (see the header)
-  double huber_chi2 = 7.815;  // Huber delta = sqrt(huber_chi2), on both terms
+  int iterations = 20;         // Levenberg-Marquardt iterations per pass
+  int max_rounds = 3;          // passes at most (see the header)
+  double huber_chi2 = 7.815;   // Huber delta = sqrt(huber_chi2), on both terms
   double chi2_stereo = 7.815;  // map-point outlier classification between passes
   double chi2_mono = 5.991;
   double marker_sigma_px = 1.0;  // standard deviation of a detected marker corner (pixels)
   double marker_weight = 1.0;    // multiplies each marker corner's information (>= 0)
-  double marker_gate_px = 5.0;   // RMS corner reprojection (pixels) above which a marker is rejected
+  double marker_gate_px = 5.0;  // RMS corner reprojection (pixels) above which a marker is rejected
   int threads = 2;
   // Throws coloc::Error naming the first invalid field.
   void check() const;

@@ -104,8 +104,7 @@ RoughAlignment rough_align(const SlamMarkers& slam, const markers::MarkerMap& sc
   for (const auto& [id, m] : scan.markers) {
     if (!slam.markers.count(id)) out.only_in_scan.push_back(id);
   }
-  const std::string where = "Seen in the map: " + describe_sightings(slam) +
-                            ". In the scan: ids " +
+  const std::string where = "Seen in the map: " + describe_sightings(slam) + ". In the scan: ids " +
                             id_list([&] {
                               std::vector<int> v;
                               for (const auto& [id, m] : scan.markers)
