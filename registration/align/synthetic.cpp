@@ -49,6 +49,88 @@ bool in_image(const Eigen::Vector2d& uv, double margin) {
   return uv.x() >= margin && uv.x() < 640.0 - margin && uv.y() >= margin && uv.y() < 480.0 - margin;
 }
 
+// The keypoints keyframe `cam_from_world` sees (true projections plus noise) with their depth;
+// `which` gets the point index of each keypoint.
+slam::frame::Frame observe_points(const SyntheticRegistrationOptions& o, int i,
+                                  const SE3& cam_from_world,
+                                  const std::vector<Eigen::Vector3d>& points,
+                                  const std::shared_ptr<const slam::frame::FrameGeometry>& g,
+                                  std::vector<std::size_t>& which, Rng& rng) {
+  const double bf = g->bf;
+  slam::features::OrbFeatures f;
+  f.image_width = 640;
+  f.image_height = 480;
+  std::vector<float> depth, u_right;
+  which.clear();
+  for (std::size_t p = 0; p < points.size(); ++p) {
+    const Eigen::Vector3d pc = cam_from_world * points[p];
+    if (pc.z() < 0.3 || pc.z() > 8.0) continue;
+    Eigen::Vector2d uv(525.0 * pc.x() / pc.z() + 319.5, 525.0 * pc.y() / pc.z() + 239.5);
+    if (!in_image(uv, 2.0)) continue;
+    uv += Eigen::Vector2d(gauss(rng, o.pixel_noise), gauss(rng, o.pixel_noise));
+    slam::features::Keypoint k;
+    k.x = k.ux = static_cast<float>(uv.x());
+    k.y = k.uy = static_cast<float>(uv.y());
+    f.keypoints.push_back(k);
+    f.descriptors.push_back({rng(), rng(), rng(), rng()});
+    const double d = pc.z() * (1.0 + gauss(rng, o.depth_noise));
+    depth.push_back(static_cast<float>(d));
+    u_right.push_back(static_cast<float>(uv.x() - bf / d));
+    which.push_back(p);
+  }
+  return slam::frame::Frame(FrameId(static_cast<std::uint64_t>(i)), 0.5 * i, std::move(f),
+                            std::move(depth), std::move(u_right), g);
+}
+
+// The markers keyframe `cam_from_world` sees whole (10 px inside the image), noisy corners.
+std::vector<markers::MarkerObservation> observe_markers(const SyntheticRegistrationOptions& o,
+                                                        const SE3& cam_from_world,
+                                                        const SyntheticRegistration& s, Rng& rng) {
+  std::vector<markers::MarkerObservation> out;
+  for (const auto& [mid, m] : s.scan_markers.markers) {
+    markers::MarkerObservation obs;
+    obs.id = mid;
+    obs.image_width = 640;
+    obs.image_height = 480;
+    bool visible = true;
+    for (int c = 0; c < 4; ++c) {
+      const Eigen::Vector3d pc = cam_from_world * m.corners[static_cast<std::size_t>(c)];
+      const Eigen::Vector2d uv = project(Camera(s.camera), pc);
+      visible = visible && pc.z() > 0.3 && in_image(uv, 10.0);
+      obs.corners[static_cast<std::size_t>(c)] =
+          uv + Eigen::Vector2d(gauss(rng, o.pixel_noise), gauss(rng, o.pixel_noise));
+    }
+    if (visible) out.push_back(obs);
+  }
+  return out;
+}
+
+// Wall points (returned) and markers (into `markers`), scan frame.
+std::vector<Eigen::Vector3d> place_scene(const SyntheticRegistrationOptions& o, Rng& rng,
+                                         markers::MarkerMap& markers) {
+  std::vector<Eigen::Vector3d> points;
+  const double area = (o.length + 2.0) * (kZMax - kZMin);
+  const auto n_points = static_cast<std::size_t>(o.points_per_m2 * area);
+  for (std::size_t i = 0; i < n_points; ++i) {
+    points.emplace_back(uniform(rng, -1.0, o.length + 1.0),
+                        o.wall_distance - uniform(rng, 0.0, o.wall_relief),
+                        uniform(rng, kZMin, kZMax));
+  }
+  markers.dictionary = "synthetic";
+  markers.frame = "scan";
+  int id = 0;
+  for (double x = 1.0; x < o.length; x += o.marker_spacing, ++id) {
+    markers::MapMarker m;
+    m.id = id;
+    const Eigen::Vector3d c(x, o.wall_distance - 1e-3, id % 2 == 0 ? 0.1 : 0.6);
+    m.corners = marker_corners_at(c, o.marker_size);
+    m.edge_length = o.marker_size;
+    m.sightings = 1;
+    markers.markers.emplace(id, m);
+  }
+  return points;
+}
+
 }  // namespace
 
 void SyntheticRegistrationOptions::check() const {
@@ -79,29 +161,9 @@ SyntheticRegistration make_synthetic_registration(const SyntheticRegistrationOpt
   s.camera.cy = 239.5;
   s.geometry = std::make_shared<slam::frame::FrameGeometry>(
       slam::frame::FrameGeometry::make(s.camera, 40.0, 3.0, {1.0f}));
-  const double bf = s.geometry->bf;
 
   // Wall points and markers, scan frame.
-  std::vector<Eigen::Vector3d> points;
-  const double area = (o.length + 2.0) * (kZMax - kZMin);
-  const auto n_points = static_cast<std::size_t>(o.points_per_m2 * area);
-  for (std::size_t i = 0; i < n_points; ++i) {
-    points.emplace_back(uniform(rng, -1.0, o.length + 1.0),
-                        o.wall_distance - uniform(rng, 0.0, o.wall_relief),
-                        uniform(rng, kZMin, kZMax));
-  }
-  s.scan_markers.dictionary = "synthetic";
-  s.scan_markers.frame = "scan";
-  int id = 0;
-  for (double x = 1.0; x < o.length; x += o.marker_spacing, ++id) {
-    markers::MapMarker m;
-    m.id = id;
-    const Eigen::Vector3d c(x, o.wall_distance - 1e-3, id % 2 == 0 ? 0.1 : 0.6);
-    m.corners = marker_corners_at(c, o.marker_size);
-    m.edge_length = o.marker_size;
-    m.sightings = 1;
-    s.scan_markers.markers.emplace(id, m);
-  }
+  const std::vector<Eigen::Vector3d> points = place_scene(o, rng, s.scan_markers);
 
   // Keyframes: true observations, drifted poses.
   const int n_keyframes = static_cast<int>(std::floor(o.length / o.keyframe_spacing)) + 1;
@@ -109,50 +171,15 @@ SyntheticRegistration make_synthetic_registration(const SyntheticRegistrationOpt
   for (int i = 0; i < n_keyframes; ++i) {
     const SE3 world_from_cam = true_world_from_cam(o, i, rng);
     const SE3 cam_from_world = world_from_cam.inverse();
-    slam::features::OrbFeatures f;
-    f.image_width = 640;
-    f.image_height = 480;
-    std::vector<float> depth, u_right;
-    std::vector<std::size_t> which;
-    for (std::size_t p = 0; p < points.size(); ++p) {
-      const Eigen::Vector3d pc = cam_from_world * points[p];
-      if (pc.z() < 0.3 || pc.z() > 8.0) continue;
-      Eigen::Vector2d uv(525.0 * pc.x() / pc.z() + 319.5, 525.0 * pc.y() / pc.z() + 239.5);
-      if (!in_image(uv, 2.0)) continue;
-      uv += Eigen::Vector2d(gauss(rng, o.pixel_noise), gauss(rng, o.pixel_noise));
-      slam::features::Keypoint k;
-      k.x = k.ux = static_cast<float>(uv.x());
-      k.y = k.uy = static_cast<float>(uv.y());
-      f.keypoints.push_back(k);
-      f.descriptors.push_back({rng(), rng(), rng(), rng()});
-      const double d = pc.z() * (1.0 + gauss(rng, o.depth_noise));
-      depth.push_back(static_cast<float>(d));
-      u_right.push_back(static_cast<float>(uv.x() - bf / d));
-      which.push_back(p);
-    }
     slam::map::Keyframe kf;
     kf.id = s.map.next_keyframe_id();
-    kf.frame = slam::frame::Frame(FrameId(static_cast<std::uint64_t>(i)), 0.5 * i, std::move(f),
-                                  std::move(depth), std::move(u_right), s.geometry);
+    std::vector<std::size_t> which;
+    kf.frame = observe_points(o, i, cam_from_world, points, s.geometry, which, rng);
     const SO3 r_drift = o.slam_from_scan.so3() * bend(o, world_from_cam.translation().x());
     const SE3 drifted(r_drift * world_from_cam.so3(), drift_point(o, world_from_cam.translation()));
     kf.frame.cam_from_world = drifted.inverse();
     kf.frame.has_pose = true;
-    for (const auto& [mid, m] : s.scan_markers.markers) {
-      markers::MarkerObservation obs;
-      obs.id = mid;
-      obs.image_width = 640;
-      obs.image_height = 480;
-      bool visible = true;
-      for (int c = 0; c < 4; ++c) {
-        const Eigen::Vector3d pc = cam_from_world * m.corners[static_cast<std::size_t>(c)];
-        const Eigen::Vector2d uv = project(Camera(s.camera), pc);
-        visible = visible && pc.z() > 0.3 && in_image(uv, 10.0);
-        obs.corners[static_cast<std::size_t>(c)] =
-            uv + Eigen::Vector2d(gauss(rng, o.pixel_noise), gauss(rng, o.pixel_noise));
-      }
-      if (visible) kf.markers.push_back(obs);
-    }
+    kf.markers = observe_markers(o, cam_from_world, s, rng);
     kf.marker_size = kf.markers.empty() ? 0.0 : o.marker_size;
     const KeyframeId kid = s.map.add_keyframe(std::move(kf)).id;
     s.true_cam_from_scan.emplace(kid, cam_from_world);
