@@ -77,7 +77,9 @@ void print_text(const align::RegistrationResult& r, const fs::path& out, double 
             << r.ms_corners + r.ms_rough << " ms)\n";
   for (const auto& m : r.rough.markers) {
     std::cout << "    marker " << m.id << ": " << m.residual * 100.0 << " cm, " << m.keyframes
-              << " keyframes" << (m.inlier ? "" : "  OUTLIER") << "\n";
+              << " keyframes, leave-one-out " << m.loo_residual * 100.0 << " cm"
+              << (m.inlier ? "" : "  OUTLIER") << (m.consistent ? "" : "  INCONSISTENT (not used)")
+              << "\n";
   }
   if (!r.rough.only_in_slam.empty() || !r.rough.only_in_scan.empty()) {
     std::cout << "    only in the map: " << r.rough.only_in_slam.size()

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
@@ -220,6 +221,54 @@ double point_rms(const optim::BundleProblem& p, const State& s, const optim::Int
   return n ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
 }
 
+// Largest RMS (pixels) among the markers not rejected, `except` left out too.
+double worst_kept(const std::vector<double>& rms, const std::vector<std::uint8_t>& rejected,
+                  std::size_t except) {
+  double worst = 0.0;
+  for (std::size_t i = 0; i < rms.size(); ++i) {
+    if (!rejected[i] && i != except) worst = std::max(worst, rms[i]);
+  }
+  return worst;
+}
+
+// When some kept marker in state `s` exceeds the gate, finds the marker to blame by leaving each
+// kept one out in turn (BA from the initial map without it): the culprit is the one that, left
+// out, exceeds the gate itself while the others agree best (smallest worst RMS). A moved marker
+// seen by many keyframes can drag the map so that an innocent, less observed marker shows the
+// disagreement; leaving one out at a time tells them apart. Rejects it and puts its
+// leave-one-out solution into `s`. False when all kept markers are within the gate, no
+// leave-one-out explains the disagreement, or two markers would remain.
+bool find_culprit(const optim::BundleProblem& problem, const State& initial,
+                  const optim::Intrinsics& k, const MarkerTerms& markers, const MarkerBaOptions& o,
+                  Flags& flags, State& s, MarkerBaReport& report) {
+  const std::vector<double> rms = marker_rms(s, k, markers);
+  const auto kept =
+      static_cast<std::size_t>(std::count(flags.rejected.begin(), flags.rejected.end(), 0));
+  if (worst_kept(rms, flags.rejected, rms.size()) <= o.marker_gate_px || kept <= 2) return false;
+  std::optional<std::size_t> culprit;
+  double best_worst = 0.0;
+  State best_state;
+  for (std::size_t c = 0; c < markers.ids.size(); ++c) {
+    if (flags.rejected[c]) continue;
+    State trial = initial;  // no bend left behind by the marker left out
+    flags.rejected[c] = 1;
+    report.iterations += solve(problem, trial, k, markers, flags, o);
+    ++report.rounds;
+    flags.rejected[c] = 0;
+    const std::vector<double> r = marker_rms(trial, k, markers);
+    const double worst = worst_kept(r, flags.rejected, c);
+    if (r[c] > o.marker_gate_px && (!culprit || worst < best_worst)) {
+      culprit = c;
+      best_worst = worst;
+      best_state = std::move(trial);
+    }
+  }
+  if (!culprit) return false;
+  flags.rejected[*culprit] = 1;
+  s = std::move(best_state);
+  return true;
+}
+
 }  // namespace
 
 void MarkerBaOptions::check() const {
@@ -300,27 +349,15 @@ MarkerBaReport marker_bundle_adjustment(slam::map::Map& map, const ScanCorners& 
   report.initial_point_rms_px = point_rms(w.problem, initial, k, flags.skip);
   report.initial_marker_rms_px = pooled_marker_rms(rms0, markers, flags.rejected);
 
+  report.iterations += solve(w.problem, s, k, markers, flags, o);
+  ++report.rounds;
   for (int round = 0; round < o.max_rounds; ++round) {
-    report.iterations += solve(w.problem, s, k, markers, flags, o);
-    ++report.rounds;
-    const std::vector<double> rms = marker_rms(s, k, markers);
-    bool rejected_now = false;
-    for (std::size_t i = 0; i < rms.size(); ++i) {
-      if (!flags.rejected[i] && rms[i] > o.marker_gate_px) {
-        flags.rejected[i] = 1;
-        rejected_now = true;
-      }
-    }
-    if (rejected_now && round + 1 < o.max_rounds) {
-      s = initial;  // no bend left behind by the rejected markers
-      continue;
-    }
-    // Drop the map-point outliers and finish without them.
-    flags.skip = classify(w.problem, s, k, o, nullptr);
-    report.iterations += solve(w.problem, s, k, markers, flags, o);
-    ++report.rounds;
-    break;
+    if (!find_culprit(w.problem, initial, k, markers, o, flags, s, report)) break;
   }
+  // Drop the map-point outliers and finish without them.
+  flags.skip = classify(w.problem, s, k, o, nullptr);
+  report.iterations += solve(w.problem, s, k, markers, flags, o);
+  ++report.rounds;
   report.final_point_rms_px = point_rms(w.problem, s, k, flags.skip);
   const std::vector<double> rms1 = marker_rms(s, k, markers);
   report.initial_marker_rms_px = pooled_marker_rms(rms0, markers, flags.rejected);

@@ -17,12 +17,16 @@
 // marker_weight scales the information of every corner (the Huber threshold stays on the
 // whitened residual).
 //
-// Outliers, in rounds: a pass over all terms; then map-point observations whose chi2 exceeds
-// chi2_stereo / chi2_mono are dropped (as ORB-SLAM), and a marker whose RMS corner reprojection
-// error (pixels) exceeds marker_gate_px is rejected: it disagrees with the map around it (moved
-// between scan and mapping, or mis-scanned). When a marker is rejected the next pass restarts from
-// the initial map, so the rejected marker's pull leaves no bend behind; otherwise the next pass
-// continues without the dropped observations. Rounds stop when nothing new is rejected.
+// Outliers: one pass over all terms; then, while some kept marker's RMS corner reprojection
+// error (pixels) exceeds marker_gate_px, the marker to blame is found by leaving each kept marker
+// out in turn (a pass from the initial map without it): the culprit is the one that, left out,
+// disagrees itself while the others agree best. It is rejected and its leave-one-out solution
+// kept, so the rejected marker's pull leaves no bend behind (a moved marker seen by many
+// keyframes can drag the map until an innocent, less observed one shows the disagreement, so
+// the marker with the largest residual is not necessarily the culprit). At most max_rounds
+// markers are rejected, and never down to fewer than two. Last, map-point observations whose
+// chi2 exceeds chi2_stereo / chi2_mono are dropped (as ORB-SLAM) and a final pass runs.
+// Cost: one pass per kept marker for each rejection, nothing extra when the markers agree.
 #include <ceres/sized_cost_function.h>
 
 #include <array>
@@ -37,7 +41,7 @@ namespace coloc::registration::align {
 
 struct MarkerBaOptions {
   int iterations = 20;         // Levenberg-Marquardt iterations per pass
-  int max_rounds = 3;          // passes at most (see the header)
+  int max_rounds = 3;          // markers rejected at most (see the header)
   double huber_chi2 = 7.815;   // Huber delta = sqrt(huber_chi2), on both terms
   double chi2_stereo = 7.815;  // map-point outlier classification between passes
   double chi2_mono = 5.991;

@@ -63,7 +63,7 @@ RegistrationResult register_map(slam::map::Map& map, const markers::MarkerMap& s
   ScanCorners corners;
   std::vector<int> use;
   for (const MarkerResidual& m : r.rough.markers) {
-    if (m.residual < o.ba_max_rough_residual) use.push_back(m.id);
+    if (m.residual < o.ba_max_rough_residual && m.consistent) use.push_back(m.id);
   }
   for (int id : use)
     corners.emplace(id, scan.markers.at(id).corners);
@@ -84,8 +84,8 @@ std::string registration_json(const RegistrationResult& r) {
   Json markers = Json::array();
   for (const MarkerResidual& m : r.rough.markers) {
     const auto it = r.slam_markers.markers.find(m.id);
-    Json e{
-        {"id", m.id}, {"keyframes", m.keyframes}, {"residual_m", m.residual}, {"inlier", m.inlier}};
+    Json e{{"id", m.id},         {"keyframes", m.keyframes},         {"residual_m", m.residual},
+           {"inlier", m.inlier}, {"loo_residual_m", m.loo_residual}, {"consistent", m.consistent}};
     if (it != r.slam_markers.markers.end()) {
       e["sightings"] = it->second.sightings;
       e["triangulated"] = it->second.triangulated;

@@ -3,8 +3,9 @@
 // in the SLAM frame, rough alignment, the map moved into the scan's frame, and (level markers)
 // the global BA with the fixed scanned corners. The map comes out in the scan's frame.
 //
-// Markers entering the BA: every marker common to the map and the scan whose rough residual is
-// below ba_max_rough_residual (metres): the rough inlier threshold is about the transform and
+// Markers entering the BA: every marker common to the map and the scan that the leave-one-out
+// test of rough alignment finds consistent and whose rough residual is below
+// ba_max_rough_residual (metres): the rough inlier threshold is about the transform and
 // must tolerate drift, while the BA judges a marker by its reprojection error once the drift is
 // gone (marker_ba.hpp); only grossly wrong markers are kept out of its first pass.
 #include <optional>

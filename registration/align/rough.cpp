@@ -70,12 +70,69 @@ std::string id_list(const std::vector<int>& ids) {
   return ids.empty() ? "none" : s.str();
 }
 
+// Leave-one-out centre residual of pairs[i] under the transform fitted to the markers of `set`
+// other than it; -1 when fewer than two remain or the fit is degenerate. Centre distance: a
+// marker seen from one keyframe has a poor orientation (IPPE on a small square), which corner
+// distances would mistake for a displacement.
+double loo(const std::vector<Pair>& pairs, const std::vector<const Pair*>& set, std::size_t i,
+           bool scale) {
+  std::vector<const Pair*> others;
+  for (const Pair* p : set) {
+    if (p != &pairs[i]) others.push_back(p);
+  }
+  if (others.size() < 2) return -1.0;
+  const auto t = fit(others, scale);
+  if (!t) return -1.0;
+  return ((*t) * pairs[i].slam->centre() - pairs[i].scan->centre()).norm();
+}
+
+double median_of(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+// Fills loo_residual and consistent of each marker (same order as `pairs`). Iterative, worst
+// first, so that a moved marker does not mask itself by dragging the others' fits: the worst
+// leave-one-out marker is inconsistent when its residual exceeds the gate computed from the
+// remaining markers' own leave-one-out residuals (without it); then it leaves the set.
+void leave_one_out(const std::vector<Pair>& pairs, const std::vector<const Pair*>& inliers,
+                   const RoughOptions& o, std::vector<MarkerResidual>& out) {
+  for (std::size_t i = 0; i < pairs.size(); ++i)
+    out[i].loo_residual = loo(pairs, inliers, i, o.estimate_scale);
+  std::vector<const Pair*> set = inliers;
+  while (set.size() > 3) {
+    std::size_t worst = pairs.size();
+    for (const Pair* p : set) {
+      const auto i = static_cast<std::size_t>(p - pairs.data());
+      if (worst == pairs.size() || out[i].loo_residual > out[worst].loo_residual) worst = i;
+    }
+    std::vector<const Pair*> rest;
+    for (const Pair* p : set) {
+      if (p != &pairs[worst]) rest.push_back(p);
+    }
+    std::vector<double> values;
+    for (const Pair* p : rest) {
+      const double r =
+          loo(pairs, rest, static_cast<std::size_t>(p - pairs.data()), o.estimate_scale);
+      if (r >= 0.0) values.push_back(r);
+    }
+    const double gate = std::max(o.consistency_min, o.consistency_factor * median_of(values));
+    if (!(out[worst].loo_residual > gate)) break;
+    out[worst].consistent = false;
+    set = std::move(rest);
+  }
+}
+
 }  // namespace
 
 void RoughOptions::check() const {
   if (!(inlier_threshold > 0.0))
     throw Error("must be positive (metres)", {.field = "inlier_threshold"});
   if (min_markers < 2) throw Error("must be >= 2", {.field = "min_markers"});
+  if (!(consistency_min > 0.0))
+    throw Error("must be positive (metres)", {.field = "consistency_min"});
+  if (!(consistency_factor > 0.0)) throw Error("must be positive", {.field = "consistency_factor"});
   if (!(min_pair_distance >= 0.0))
     throw Error("must be >= 0 (metres)", {.field = "min_pair_distance"});
 }
@@ -164,6 +221,7 @@ RoughAlignment rough_align(const SlamMarkers& slam, const markers::MarkerMap& sc
     s << ". " << where;
     throw Error(s.str(), {.field = "markers"});
   }
+  leave_one_out(pairs, best.inliers, o, out.markers);
   out.scan_from_slam = t;
   out.rms = std::sqrt(sq / static_cast<double>(out.inliers));
   return out;

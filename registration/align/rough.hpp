@@ -29,6 +29,14 @@ struct RoughOptions {
   // Pairs whose marker centres are closer than this (metres) propose no transform.
   double min_pair_distance = 0.5;
   bool estimate_scale = false;  // Sim3 instead of SE3 (RGB-D maps are metric)
+  // Leave-one-out consistency: each marker's residual under the transform fitted to the OTHER
+  // inliers; a marker is inconsistent when that exceeds max(consistency_min, consistency_factor
+  // * the median of all markers' leave-one-out residuals). In a flexible (drifting, unclosed)
+  // map the marker BA can bend the map to fit a moved marker at little cost, so a moved marker
+  // must be caught here, where the map is still rigid: drift between markers is smooth and
+  // small next to a marker moved by tens of centimetres.
+  double consistency_min = 0.10;  // metres
+  double consistency_factor = 3.0;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
 };
@@ -37,7 +45,9 @@ struct MarkerResidual {
   int id = -1;
   double residual = 0.0;  // RMS corner distance after the alignment (metres)
   bool inlier = false;
-  std::size_t keyframes = 0;  // SLAM keyframes that observed it
+  std::size_t keyframes = 0;   // SLAM keyframes that observed it
+  double loo_residual = -1.0;  // leave-one-out residual (metres); -1 when not computable
+  bool consistent = true;      // see RoughOptions::consistency_min
 };
 
 struct RoughAlignment {
