@@ -35,7 +35,7 @@ struct RoughOptions {
   // map the marker BA can bend the map to fit a moved marker at little cost, so a moved marker
   // must be caught here, where the map is still rigid: drift between markers is smooth and
   // small next to a marker moved by tens of centimetres.
-  double consistency_min = 0.10;  // metres
+  double consistency_min = 0.15;  // metres
   double consistency_factor = 3.0;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
