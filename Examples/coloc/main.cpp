@@ -40,6 +40,7 @@ int main(int argc, char** argv) {
   coloc::cli::add_twin_verb(app, bench);
   coloc::cli::add_handeye_verb(app, bench);
   coloc::cli::add_fuse_verb(app, bench);
+  coloc::cli::add_register_verb(app);
 
   try {
     app.parse(argc, argv);

@@ -23,5 +23,7 @@ void add_markers_verb(CLI::App& app, CLI::App& bench);
 void add_twin_verb(CLI::App& app, CLI::App& bench);
 void add_handeye_verb(CLI::App& app, CLI::App& bench);
 void add_fuse_verb(CLI::App& app, CLI::App& bench);
+// `coloc register` (verb_register.cpp).
+void add_register_verb(CLI::App& app);
 
 }  // namespace coloc::cli

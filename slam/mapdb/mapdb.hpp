@@ -54,6 +54,10 @@ struct MapMetadata {
   std::string frame_name = "slam";
   // Registration's transform: maps points of the SLAM frame into `frame_name`, if any.
   std::optional<Sim3> frame_from_slam;
+  // What registration did (`coloc register`: level, transform, per-level residuals) as one JSON
+  // document; empty for a map that was never registered. Entry `registration`, written only
+  // when not empty (maps without it load as before).
+  std::string registration;
   // The camera model (with distortion) the keyframes' undistorted keypoints came from. Saved in
   // every `cameras` row; read back from the first one.
   std::optional<Camera> camera;

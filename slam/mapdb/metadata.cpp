@@ -64,6 +64,7 @@ MetadataEntries metadata_entries(const MapMetadata& m) {
   e["settings"] = m.settings;
   e["frame_name"] = m.frame_name;
   e["frame_transform"] = m.frame_from_slam ? sim3_text(*m.frame_from_slam) : "";
+  if (!m.registration.empty()) e["registration"] = m.registration;
   return e;
 }
 
@@ -108,6 +109,8 @@ MapMetadata parse_metadata(const MetadataEntries& entries, const std::filesystem
   m.frame_name = entry(entries, "frame_name", file);
   const std::string& transform = entry(entries, "frame_transform", file);
   if (!transform.empty()) m.frame_from_slam = parse_sim3(transform, file);
+  if (const auto it = entries.find("registration"); it != entries.end())
+    m.registration = it->second;
   return m;
 }
 

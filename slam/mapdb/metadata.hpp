@@ -1,9 +1,9 @@
 #pragma once
 // The `metadata` table's key/value entries (internal to slam/mapdb). Keys (README "Map
 // database"): format, coloc_version, saved_utc, vocabulary_checksum, vocabulary_words,
-// settings, frame_name, frame_transform, first_keyframe, next_keyframe_id, next_point_id,
-// count.<table> and checksum.<table> for every other table, and checksum.metadata over all
-// entries that are not checksums.
+// settings, frame_name, frame_transform, registration (optional), first_keyframe, next_keyframe_id,
+// next_point_id, count.<table> and checksum.<table> for every other table, and checksum.metadata
+// over all entries that are not checksums.
 #include <cstdint>
 #include <filesystem>
 #include <map>

@@ -1,0 +1,388 @@
+#include "registration/align/marker_ba.hpp"
+
+#include <ceres/loss_function.h>
+#include <ceres/problem.h>
+#include <ceres/solver.h>
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+
+#include "slam/core/error.hpp"
+#include "slam/core/timing.hpp"
+#include "slam/mapping/ba_window.hpp"
+#include "slam/optim/bundle_adjustment.hpp"
+
+namespace coloc::registration::align {
+
+namespace optim = slam::optim;
+
+namespace {
+
+struct CornerObservation {
+  std::uint32_t pose = 0;
+  std::size_t marker = 0;  // index into MarkerTerms::ids
+  int corner = 0;
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  // undistorted
+};
+
+struct MarkerTerms {
+  std::vector<int> ids;
+  std::vector<std::array<Eigen::Vector3d, 4>> corners;  // fixed, scan frame
+  std::vector<std::size_t> keyframes;                   // per marker
+  std::vector<CornerObservation> observations;
+};
+
+// The state Ceres changes: pose parameter blocks and the points (in the window's problem).
+struct State {
+  std::vector<double> poses;  // 7 per pose
+  std::vector<Eigen::Vector3d> points;
+};
+
+State state_of(const optim::BundleProblem& p) {
+  State s;
+  s.poses.resize(7 * p.poses.size());
+  for (std::size_t i = 0; i < p.poses.size(); ++i)
+    optim::pose_to_array(p.poses[i].cam_from_world, &s.poses[7 * i]);
+  s.points = p.points;
+  return s;
+}
+
+MarkerTerms marker_terms(const slam::map::Map& map, const slam::mapping::BaWindow& w,
+                         const ScanCorners& scan, const Camera& camera,
+                         const std::vector<int>& use_ids) {
+  MarkerTerms t;
+  std::map<int, std::size_t> index;
+  for (std::size_t pose = 0; pose < w.pose_ids.size(); ++pose) {
+    const slam::map::Keyframe* kf = map.keyframe(w.pose_ids[pose]);
+    for (const markers::MarkerObservation& o : kf->markers) {
+      const auto it = scan.find(o.id);
+      if (it == scan.end()) continue;
+      if (!use_ids.empty() && std::find(use_ids.begin(), use_ids.end(), o.id) == use_ids.end())
+        continue;
+      auto [slot, fresh] = index.emplace(o.id, t.ids.size());
+      if (fresh) {
+        t.ids.push_back(o.id);
+        t.corners.push_back(it->second);
+        t.keyframes.push_back(0);
+      }
+      ++t.keyframes[slot->second];
+      for (int c = 0; c < 4; ++c) {
+        const Eigen::Vector2d px = undistort_pixel(camera, o.corners[static_cast<std::size_t>(c)]);
+        if (!px.allFinite()) continue;
+        t.observations.push_back({static_cast<std::uint32_t>(pose), slot->second, c, px});
+      }
+    }
+  }
+  return t;
+}
+
+struct Flags {
+  std::vector<std::uint8_t> skip;      // per map-point observation
+  std::vector<std::uint8_t> rejected;  // per marker
+};
+
+int solve(const optim::BundleProblem& problem, State& s, const optim::Intrinsics& k,
+          const MarkerTerms& markers, const Flags& flags, const MarkerBaOptions& o) {
+  ceres::Problem::Options popts;
+  popts.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem cp(popts);
+  optim::PoseManifold manifold;
+  std::vector<std::uint8_t> added(problem.poses.size(), 0);
+  auto pose_block = [&](std::uint32_t i) {
+    double* block = &s.poses[7 * static_cast<std::size_t>(i)];
+    if (!added[i]) {
+      added[i] = 1;
+      cp.AddParameterBlock(block, 7, &manifold);
+      if (problem.poses[i].fixed) cp.SetParameterBlockConstant(block);
+    }
+    return block;
+  };
+  const double delta = std::sqrt(o.huber_chi2);
+  for (std::size_t i = 0; i < problem.observations.size(); ++i) {
+    if (flags.skip[i]) continue;
+    const auto& ob = problem.observations[i];
+    const double inv_sigma = std::sqrt(ob.inv_sigma2);
+    double* pose = pose_block(ob.pose);
+    double* point = s.points[ob.point].data();
+    if (ob.u_right >= 0.0) {
+      cp.AddResidualBlock(
+          new optim::StereoReprojectionCost(k, {ob.pixel.x(), ob.pixel.y(), ob.u_right}, inv_sigma),
+          new ceres::HuberLoss(delta), pose, point);
+    } else {
+      cp.AddResidualBlock(new optim::MonoReprojectionCost(k, ob.pixel, inv_sigma),
+                          new ceres::HuberLoss(delta), pose, point);
+    }
+  }
+  const double marker_inv_sigma = std::sqrt(o.marker_weight) / o.marker_sigma_px;
+  if (marker_inv_sigma > 0.0) {
+    for (const CornerObservation& c : markers.observations) {
+      if (flags.rejected[c.marker]) continue;
+      cp.AddResidualBlock(
+          new MarkerCornerCost(k, c.pixel,
+                               markers.corners[c.marker][static_cast<std::size_t>(c.corner)],
+                               marker_inv_sigma),
+          new ceres::HuberLoss(delta), pose_block(c.pose));
+    }
+  }
+  if (cp.NumResidualBlocks() == 0) return 0;
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::SPARSE_SCHUR;
+  so.max_num_iterations = o.iterations;
+  so.num_threads = o.threads;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &cp, &summary);
+  return static_cast<int>(summary.iterations.size());
+}
+
+// Per marker: RMS pixel distance between detected and projected corners (behind the camera
+// counts as 1000 px).
+std::vector<double> marker_rms(const State& s, const optim::Intrinsics& k, const MarkerTerms& m) {
+  std::vector<double> sum(m.ids.size(), 0.0);
+  std::vector<std::size_t> n(m.ids.size(), 0);
+  for (const CornerObservation& c : m.observations) {
+    const SE3 pose = optim::pose_from_array(&s.poses[7 * static_cast<std::size_t>(c.pose)]);
+    Eigen::Vector2d r;
+    const bool ok = optim::mono_residual(
+        k, pose * m.corners[c.marker][static_cast<std::size_t>(c.corner)], c.pixel, r, nullptr);
+    sum[c.marker] += ok ? r.squaredNorm() : 1e6;
+    ++n[c.marker];
+  }
+  std::vector<double> out(m.ids.size(), 0.0);
+  for (std::size_t i = 0; i < out.size(); ++i)
+    out[i] = n[i] ? std::sqrt(sum[i] / static_cast<double>(n[i])) : 0.0;
+  return out;
+}
+
+// RMS over the markers' corner observations, weighted by their count, of the markers kept.
+double pooled_marker_rms(const std::vector<double>& rms, const MarkerTerms& m,
+                         const std::vector<std::uint8_t>& rejected) {
+  double sum = 0.0, n = 0.0;
+  for (std::size_t i = 0; i < rms.size(); ++i) {
+    if (rejected[i]) continue;
+    const double count = 4.0 * static_cast<double>(m.keyframes[i]);
+    sum += rms[i] * rms[i] * count;
+    n += count;
+  }
+  return n > 0.0 ? std::sqrt(sum / n) : 0.0;
+}
+
+// Chi2 classification of the map-point observations (as slam/optim); also the pixel RMS of the
+// observations not flagged.
+std::vector<std::uint8_t> classify(const optim::BundleProblem& p, const State& s,
+                                   const optim::Intrinsics& k, const MarkerBaOptions& o,
+                                   double* rms_px) {
+  std::vector<std::uint8_t> out(p.observations.size(), 0);
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < p.observations.size(); ++i) {
+    const auto& ob = p.observations[i];
+    const SE3 pose = optim::pose_from_array(&s.poses[7 * static_cast<std::size_t>(ob.pose)]);
+    const Eigen::Vector3d pc = pose * s.points[ob.point];
+    double chi2 = -1.0, px2 = 0.0;
+    if (ob.u_right >= 0.0) {
+      Eigen::Vector3d r;
+      if (optim::stereo_residual(k, pc, {ob.pixel.x(), ob.pixel.y(), ob.u_right}, r, nullptr)) {
+        chi2 = r.squaredNorm() * ob.inv_sigma2;
+        px2 = r.head<2>().squaredNorm();
+      }
+      out[i] = (chi2 < 0.0 || chi2 > o.chi2_stereo) ? 1 : 0;
+    } else {
+      Eigen::Vector2d r;
+      if (optim::mono_residual(k, pc, ob.pixel, r, nullptr)) {
+        chi2 = r.squaredNorm() * ob.inv_sigma2;
+        px2 = r.squaredNorm();
+      }
+      out[i] = (chi2 < 0.0 || chi2 > o.chi2_mono) ? 1 : 0;
+    }
+    if (!out[i]) {
+      sum += px2;
+      ++n;
+    }
+  }
+  if (rms_px) *rms_px = n ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
+  return out;
+}
+
+double point_rms(const optim::BundleProblem& p, const State& s, const optim::Intrinsics& k,
+                 const std::vector<std::uint8_t>& skip) {
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < p.observations.size(); ++i) {
+    if (skip[i]) continue;
+    const auto& ob = p.observations[i];
+    const SE3 pose = optim::pose_from_array(&s.poses[7 * static_cast<std::size_t>(ob.pose)]);
+    Eigen::Vector2d r;
+    if (!optim::mono_residual(k, pose * s.points[ob.point], ob.pixel, r, nullptr)) continue;
+    sum += r.squaredNorm();
+    ++n;
+  }
+  return n ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
+}
+
+// Largest RMS (pixels) among the markers not rejected, `except` left out too.
+double worst_kept(const std::vector<double>& rms, const std::vector<std::uint8_t>& rejected,
+                  std::size_t except) {
+  double worst = 0.0;
+  for (std::size_t i = 0; i < rms.size(); ++i) {
+    if (!rejected[i] && i != except) worst = std::max(worst, rms[i]);
+  }
+  return worst;
+}
+
+// When some kept marker in state `s` exceeds the gate, finds the marker to blame by leaving each
+// kept one out in turn (BA from the initial map without it): the culprit is the one that, left
+// out, exceeds the gate itself while the others agree best (smallest worst RMS). A moved marker
+// seen by many keyframes can drag the map so that an innocent, less observed marker shows the
+// disagreement; leaving one out at a time tells them apart. Rejects it and puts its
+// leave-one-out solution into `s`. False when all kept markers are within the gate, no
+// leave-one-out explains the disagreement, or two markers would remain.
+bool find_culprit(const optim::BundleProblem& problem, const State& initial,
+                  const optim::Intrinsics& k, const MarkerTerms& markers, const MarkerBaOptions& o,
+                  Flags& flags, State& s, MarkerBaReport& report) {
+  const std::vector<double> rms = marker_rms(s, k, markers);
+  const auto kept =
+      static_cast<std::size_t>(std::count(flags.rejected.begin(), flags.rejected.end(), 0));
+  if (worst_kept(rms, flags.rejected, rms.size()) <= o.marker_gate_px || kept <= 2) return false;
+  std::optional<std::size_t> culprit;
+  double best_worst = 0.0;
+  State best_state;
+  for (std::size_t c = 0; c < markers.ids.size(); ++c) {
+    if (flags.rejected[c]) continue;
+    State trial = initial;  // no bend left behind by the marker left out
+    flags.rejected[c] = 1;
+    report.iterations += solve(problem, trial, k, markers, flags, o);
+    ++report.rounds;
+    flags.rejected[c] = 0;
+    const std::vector<double> r = marker_rms(trial, k, markers);
+    const double worst = worst_kept(r, flags.rejected, c);
+    if (r[c] > o.marker_gate_px && (!culprit || worst < best_worst)) {
+      culprit = c;
+      best_worst = worst;
+      best_state = std::move(trial);
+    }
+  }
+  if (!culprit) return false;
+  flags.rejected[*culprit] = 1;
+  s = std::move(best_state);
+  return true;
+}
+
+}  // namespace
+
+void MarkerBaOptions::check() const {
+  if (iterations < 1) throw Error("must be >= 1", {.field = "iterations"});
+  if (max_rounds < 1) throw Error("must be >= 1", {.field = "max_rounds"});
+  if (!(huber_chi2 > 0.0)) throw Error("must be positive", {.field = "huber_chi2"});
+  if (!(chi2_stereo > 0.0)) throw Error("must be positive", {.field = "chi2_stereo"});
+  if (!(chi2_mono > 0.0)) throw Error("must be positive", {.field = "chi2_mono"});
+  if (!(marker_sigma_px > 0.0))
+    throw Error("must be positive (pixels)", {.field = "marker_sigma_px"});
+  if (!(marker_weight >= 0.0)) throw Error("must be >= 0", {.field = "marker_weight"});
+  if (!(marker_gate_px > 0.0))
+    throw Error("must be positive (pixels)", {.field = "marker_gate_px"});
+  if (threads < 1) throw Error("must be >= 1", {.field = "threads"});
+}
+
+std::vector<int> MarkerBaReport::rejected_ids() const {
+  std::vector<int> ids;
+  for (const MarkerBaMarker& m : markers) {
+    if (m.rejected) ids.push_back(m.id);
+  }
+  return ids;
+}
+
+bool MarkerBaReport::usable() const {
+  return std::count_if(markers.begin(), markers.end(),
+                       [](const MarkerBaMarker& m) { return !m.rejected; }) >= 2;
+}
+
+bool MarkerCornerCost::Evaluate(double const* const* parameters, double* residuals,
+                                double** jacobians) const {
+  const SE3 pose = optim::pose_from_array(parameters[0]);
+  const Eigen::Vector3d p = pose * corner_;
+  Eigen::Vector2d r;
+  Eigen::Matrix<double, 2, 3> jr;
+  if (!optim::mono_residual(k_, p, pixel_, r, &jr)) {
+    // Behind the camera: large constant residual, zero slope (as slam/optim's costs).
+    residuals[0] = residuals[1] = 1e3;
+    if (jacobians && jacobians[0]) std::fill(jacobians[0], jacobians[0] + 14, 0.0);
+    return true;
+  }
+  residuals[0] = inv_sigma_ * r.x();
+  residuals[1] = inv_sigma_ * r.y();
+  if (jacobians && jacobians[0]) {
+    Eigen::Map<Eigen::Matrix<double, 2, 7, Eigen::RowMajor>> j(jacobians[0]);
+    j.leftCols<6>() = inv_sigma_ * jr * optim::pcam_jacobian_pose(p);
+    j.col(6).setZero();
+  }
+  return true;
+}
+
+MarkerBaReport marker_bundle_adjustment(slam::map::Map& map, const ScanCorners& scan,
+                                        const Camera& camera, const std::vector<int>& use_ids,
+                                        const MarkerBaOptions& o) {
+  o.check();
+  if (map.keyframe_count() < 2) {
+    throw Error("the map has " + std::to_string(map.keyframe_count()) +
+                    " keyframe(s); bundle adjustment needs two or more",
+                {.field = "keyframes"});
+  }
+  Stopwatch watch;
+  std::vector<KeyframeId> all;
+  for (const auto& [id, kf] : map.keyframes())
+    all.push_back(id);
+  std::sort(all.begin(), all.end());  // deterministic problem order
+  slam::mapping::BaWindow w = slam::mapping::make_window(map, all);
+  for (auto& pose : w.problem.poses)
+    pose.fixed = false;  // the fixed marker corners hold the gauge
+  const MarkerTerms markers = marker_terms(map, w, scan, camera, use_ids);
+  const optim::Intrinsics& k = w.intrinsics;
+
+  const State initial = state_of(w.problem);
+  State s = initial;
+  Flags flags{std::vector<std::uint8_t>(w.problem.observations.size(), 0),
+              std::vector<std::uint8_t>(markers.ids.size(), 0)};
+  MarkerBaReport report;
+  const std::vector<double> rms0 = marker_rms(initial, k, markers);
+  report.initial_point_rms_px = point_rms(w.problem, initial, k, flags.skip);
+  report.initial_marker_rms_px = pooled_marker_rms(rms0, markers, flags.rejected);
+
+  report.iterations += solve(w.problem, s, k, markers, flags, o);
+  ++report.rounds;
+  for (int round = 0; round < o.max_rounds; ++round) {
+    if (!find_culprit(w.problem, initial, k, markers, o, flags, s, report)) break;
+  }
+  // Drop the map-point outliers and finish without them.
+  flags.skip = classify(w.problem, s, k, o, nullptr);
+  report.iterations += solve(w.problem, s, k, markers, flags, o);
+  ++report.rounds;
+  report.final_point_rms_px = point_rms(w.problem, s, k, flags.skip);
+  const std::vector<double> rms1 = marker_rms(s, k, markers);
+  report.initial_marker_rms_px = pooled_marker_rms(rms0, markers, flags.rejected);
+  report.final_marker_rms_px = pooled_marker_rms(rms1, markers, flags.rejected);
+  for (std::size_t i = 0; i < markers.ids.size(); ++i) {
+    report.markers.push_back(
+        {markers.ids[i], markers.keyframes[i], rms0[i], rms1[i], flags.rejected[i] != 0});
+  }
+  std::sort(report.markers.begin(), report.markers.end(),
+            [](const MarkerBaMarker& a, const MarkerBaMarker& b) { return a.id < b.id; });
+
+  for (std::size_t i = 0; i < w.problem.poses.size(); ++i)
+    w.problem.poses[i].cam_from_world = optim::pose_from_array(&s.poses[7 * i]);
+  w.problem.points = s.points;
+  optim::BundleResult result;
+  result.outlier = flags.skip;
+  slam::mapping::apply_window(map, w, result);
+
+  report.keyframes = w.pose_ids.size();
+  report.points = w.point_ids.size();
+  report.observations = w.problem.observations.size();
+  report.marker_observations = markers.observations.size();
+  report.outliers = static_cast<std::size_t>(std::count(flags.skip.begin(), flags.skip.end(), 1));
+  report.ms = watch.elapsed_ms();
+  return report;
+}
+
+}  // namespace coloc::registration::align
