@@ -11,9 +11,16 @@
 namespace coloc::cli {
 namespace {
 
+// None without ground truth, or when the poses cannot be aligned (a few keyframes on a line):
+// the run itself is fine, only this figure does not exist.
 std::optional<eval::AteResult> ate_of(const dataset::Sequence& sequence, const Trajectory& t) {
   if (sequence.ground_truth().empty() || t.size() < 3) return std::nullopt;
-  return eval::compute_ate(sequence.ground_truth(), t);
+  try {
+    return eval::compute_ate(sequence.ground_truth(), t);
+  } catch (const Error& e) {
+    spdlog::warn("no ATE over {} poses: {}", t.size(), e.what());
+    return std::nullopt;
+  }
 }
 
 }  // namespace
