@@ -47,6 +47,9 @@ struct TrackingOptions {
   bool wait_for_sink = false;
   // Colour images are RGB (ORB-SLAM's Camera.RGB: 1), else BGR. Only the grey conversion uses it.
   bool rgb_input = false;
+  // Keep a FrameRecord per frame (the trajectory); false keeps only the last one, so memory
+  // stays flat over a long localization session.
+  bool keep_records = true;
   reloc::RelocalizationOptions relocalization;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
@@ -93,6 +96,9 @@ class Tracker {
 
   TrackingState state() const { return state_; }
   const std::vector<FrameRecord>& records() const { return records_; }
+  // The last frame tracked (its pose, keypoints and inlier matches in `points`), empty after a
+  // frame that was not. Valid until the next track().
+  const frame::Frame& last_frame() const { return last_; }
   int relocalizations() const { return relocalizations_; }
 
  private:
