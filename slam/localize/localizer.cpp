@@ -1,7 +1,5 @@
 #include "slam/localize/localizer.hpp"
 
-#include <spdlog/spdlog.h>
-
 #include <chrono>
 #include <cmath>
 #include <string>
@@ -136,6 +134,8 @@ LocalizationResult Localizer::localize(const cv::Mat& image, const cv::Mat& dept
   r.timestamp = timestamp;
   r.extract_ms = t.extract_ms;
   r.track_ms = t.track_ms;
+  r.pose_ms = t.pose_ms;
+  r.local_map_ms = t.local_map_ms;
   if (t.state == tracking::TrackingState::kOk) {
     r.state = was_localized_ ? LocalizationState::kTracking : LocalizationState::kRelocalized;
     r.world_from_cam = t.cam_from_world.inverse();

@@ -74,7 +74,9 @@ struct LocalizationResult {
   // Quality: RMS of the inliers' reprojection errors, level-0 undistorted pixels (0 when lost).
   double reprojection_rms_px = 0.0;
   KeyframeId reference;  // the keyframe sharing most points with the frame (invalid when lost)
-  double extract_ms = 0.0, track_ms = 0.0, total_ms = 0.0;  // wall time of this call
+  // Wall time of this call: feature extraction, the rest of tracking, and in it the initial pose
+  // (motion model / relocalization) and the local-map tracking; total = the whole call.
+  double extract_ms = 0.0, track_ms = 0.0, pose_ms = 0.0, local_map_ms = 0.0, total_ms = 0.0;
 };
 
 struct LocalizerStats {
