@@ -98,8 +98,12 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
       if (state_ == TrackingState::kOk) {
         if (!shared_.map.keyframe(reference_)) update_local_map();
         follow_reference_of_last_frame();
-        ok = has_velocity_ && track_motion_model();
+        ok = has_velocity_ && track_motion_model(velocity_);
         if (!ok) ok = track_reference_keyframe();
+        // Right after a relocalization there is no velocity yet, and the reference keyframe's
+        // BoW matches can be too few (the relocalizing frame needed projection passes too): the
+        // last frame's matches, projected from where it was, still find this one.
+        if (!ok && !has_velocity_ && last_.has_pose) ok = track_motion_model(SE3());
       } else {
         ok = relocalize();
         result.relocalized = ok;
@@ -247,9 +251,9 @@ bool Tracker::initialize() {
   return true;
 }
 
-bool Tracker::track_motion_model() {
+bool Tracker::track_motion_model(const SE3& velocity) {
   const map::Map& m = shared_.map;
-  current_.cam_from_world = velocity_ * last_.cam_from_world;
+  current_.cam_from_world = velocity * last_.cam_from_world;
   current_.points.assign(current_.size(), MapPointId::invalid());
   int n = matching::search_from_last_frame(current_, last_, m, options_.motion_search_radius);
   if (n < 20) {

@@ -103,7 +103,8 @@ class Tracker {
 
  private:
   bool initialize();
-  bool track_motion_model();
+  // Projects the last frame's matches from velocity * last pose (current_from_last).
+  bool track_motion_model(const SE3& velocity);
   bool track_reference_keyframe();
   bool relocalize();
   bool track_local_map();
