@@ -40,6 +40,7 @@ using slam::localize::Localizer;
 
 struct LocalizeArgs {
   fs::path map, sequence, config, vocabulary, trajectory;
+  fs::path gt_from_map;  // TUM file whose first pose maps the map's frame into the ground truth's
   std::vector<std::string> publish;
   int listen = -1;  // -1: any free port
   std::string bind = "127.0.0.1";
@@ -225,7 +226,16 @@ void run_localize(const LocalizeArgs& args) {
   const auto& s = localizer.stats();
   const double localized = std::max<double>(1.0, static_cast<double>(s.localized));
   const auto aligned = ate(sequence, totals.trajectory, eval::Alignment::kSE3);
-  const auto unaligned = ate(sequence, totals.trajectory, eval::Alignment::kNone);
+  // Without alignment: in the map's frame, or moved by a known (not fitted) transform into the
+  // ground truth's frame (a twin map: the mapped walk's scan_from_sequence_start.txt).
+  Trajectory in_gt_frame = totals.trajectory;
+  if (!args.gt_from_map.empty()) {
+    const Trajectory t = read_tum_trajectory(args.gt_from_map);
+    if (t.empty()) throw Error("no pose in the file", {.file = args.gt_from_map.string()});
+    for (auto& p : in_gt_frame)
+      p.world_from_cam = t.front().world_from_cam * p.world_from_cam;
+  }
+  const auto unaligned = ate(sequence, in_gt_frame, eval::Alignment::kNone);
   const fusion::OscStats osc_stats = server->stats();
   const std::uint64_t bad_packets = osc_stats.oversized + osc_stats.malformed +
                                     osc_stats.unknown_address + osc_stats.wrong_types +
@@ -269,8 +279,9 @@ void run_localize(const LocalizeArgs& args) {
             << " bad packets dropped\n";
   if (aligned && unaligned)
     std::cout << "ATE RMSE vs ground truth: " << unaligned->translation.rmse
-              << " m in the map's frame, " << aligned->translation.rmse
-              << " m after SE3 alignment\n";
+              << " m without alignment"
+              << (args.gt_from_map.empty() ? " (map frame)" : " (map frame moved by --gt-from-map)")
+              << ", " << aligned->translation.rmse << " m after SE3 alignment\n";
 }
 
 // Resident set size of this process (bytes), from /proc/self/statm; 0 when unreadable.
@@ -378,6 +389,11 @@ void add_localize_verb(CLI::App& app, CLI::App& bench) {
                   "BoW vocabulary (default: Vocabulary/coloc_orb_k10_L5.cvoc)");
   cmd->add_option("--trajectory", args->trajectory,
                   "Output: localized poses world_from_cam (TUM format)");
+  cmd->add_option("--gt-from-map", args->gt_from_map,
+                  "TUM file whose first pose maps the map's frame into the ground truth's (for "
+                  "the ATE without alignment; a twin: groundtruth/scan_from_sequence_start.txt of "
+                  "the mapped walk)")
+      ->check(CLI::ExistingFile);
   cmd->add_option("--publish", args->publish,
                   "Send every localized pose as /coloc/pose to osc.udp://HOST:PORT (repeatable)");
   cmd->add_option("--listen", args->listen,
