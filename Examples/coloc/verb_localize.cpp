@@ -72,21 +72,7 @@ settings::Settings choose_settings(const LocalizeArgs& args,
   if (!args.config.empty()) return settings::load_settings(args.config);
   if (map.metadata.settings.empty())
     return settings::load_settings(default_config_for(args.sequence));
-  // load_settings reads files (OpenCV FileStorage): the text goes through a private temporary.
-  slam::mapdb::AtomicFile scratch(fs::temp_directory_path() / "coloc-localize-settings.yaml");
-  {
-    std::ofstream out(scratch.temp_path());
-    out << map.metadata.settings;
-    if (!out) throw Error("cannot write a temporary settings file", {scratch.temp_path()});
-  }
-  try {
-    settings::Settings s = settings::load_settings(scratch.temp_path());
-    s.source = args.map.string() + " (metadata.settings)";
-    return s;
-  } catch (const Error& e) {
-    throw Error("the settings saved in the map: " + e.message(),
-                {.file = args.map.string(), .field = "metadata.settings"});
-  }
+  return slam::localize::settings_saved_in(map, args.map);
 }
 
 LocalizeInputs load_inputs(const LocalizeArgs& args) {

@@ -48,6 +48,13 @@ std::unique_ptr<LocalizationMap> load_localization_map(const std::filesystem::pa
                                                        const bow::Vocabulary& vocabulary,
                                                        const mapdb::LoadOptions& options = {});
 
+// The settings the map was built with (metadata.settings: the settings file's text, which
+// `coloc map --save` stores), parsed as load_settings parses a file; `map_path` names the map in
+// errors. Throws coloc::Error naming the map file and "metadata.settings" when the map holds no
+// settings or they do not parse.
+settings::Settings settings_saved_in(const LocalizationMap& map,
+                                     const std::filesystem::path& map_path);
+
 // The numbers are the OSC `state` argument of /coloc/pose (fusion/osc.hpp).
 enum class LocalizationState : std::int32_t { kLost = 0, kTracking = 1, kRelocalized = 2 };
 const char* to_string(LocalizationState state);

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "slam/core/error.hpp"
+#include "slam/localize/c_api.h"
 #include "slam/localize/localizer.hpp"
 #include "tests/slam/localize/localize_fixture.hpp"
 #include "tests/slam/mapdb/map_compare.hpp"
@@ -208,6 +209,50 @@ TEST(Localizer, LoadingAMissingMapNamesTheFile) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/site.db"), std::string::npos) << e.what();
   }
+}
+
+// The C ABI (coloc_localize_c) on the same map, the settings taken from the map itself: a cold
+// start mid-walk, then tracking, poses on the mapped trajectory.
+TEST(LocalizeCApi, LocalizesWithTheSettingsSavedInTheMap) {
+  char error[512];
+  const std::string vocabulary =
+      (test_support::source_dir() / "Vocabulary/coloc_orb_k10_L5.cvoc").string();
+  coloc_localizer* h =
+      coloc_localizer_open(fixture().map.c_str(), vocabulary.c_str(), nullptr, error, sizeof error);
+  ASSERT_NE(h, nullptr) << error;
+  std::uint64_t keyframes = 0, points = 0;
+  char frame[32];
+  ASSERT_EQ(coloc_localizer_map_info(h, &keyframes, &points, frame, sizeof frame),
+            COLOC_LOCALIZE_OK);
+  EXPECT_GT(keyframes, 5u);
+  EXPECT_GT(points, 1000u);
+  EXPECT_STREQ(frame, "slam");
+  const Inputs in = open_inputs();
+  for (std::size_t i = 40; i < 50; ++i) {
+    const dataset::Frame f = in.sequence->frame(i);
+    coloc_localize_pose pose{};
+    ASSERT_EQ(coloc_localizer_localize(
+                  h, f.color.data, f.color.cols, f.color.rows, f.color.channels(), f.color.step,
+                  reinterpret_cast<const float*>(f.depth.data), f.depth.step, f.timestamp, &pose),
+              COLOC_LOCALIZE_OK)
+        << coloc_localizer_last_error(h);
+    EXPECT_EQ(pose.state, i == 40 ? COLOC_LOCALIZE_RELOCALIZED : COLOC_LOCALIZE_TRACKING);
+    const auto m = mapped_pose(fixture().mapped, f.timestamp);
+    ASSERT_TRUE(m);
+    EXPECT_LT(
+        (m->translation() - Eigen::Vector3d(pose.position[0], pose.position[1], pose.position[2]))
+            .norm(),
+        0.02);
+    EXPECT_GT(pose.inliers, 100);
+  }
+  // Wrong size: an error with a message, the handle still usable.
+  const std::vector<std::uint8_t> small(100 * 100, 0);
+  coloc_localize_pose pose{};
+  EXPECT_EQ(coloc_localizer_localize(h, small.data(), 100, 100, 1, 100, nullptr, 0, 1.0, &pose),
+            COLOC_LOCALIZE_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(coloc_localizer_last_error(h)).find("Camera.width"), std::string::npos);
+  EXPECT_EQ(coloc_localizer_reset(h), COLOC_LOCALIZE_OK);
+  coloc_localizer_close(h);
 }
 
 }  // namespace
