@@ -2,7 +2,9 @@
 // ORB-SLAM3's RGB-D TUM example with its argument order and output files: reads the
 // associations file ("t_rgb rgb/x.png t_depth depth/y.png" per line, as TUM's associate.py
 // writes), runs coloc's RGB-D SLAM, and writes CameraTrajectory.txt and KeyFrameTrajectory.txt
-// (TUM format) in the working directory. Exit code 0 on success, 1 on failure, 2 on bad usage.
+// (TUM format) in the working directory. ORB-SLAM3 v1.0's System.LoadAtlasFromFile continues a
+// saved map (coloc's map database, ".db" added to a bare name) and System.SaveAtlasToFile saves
+// the map at the end. Exit code 0 on success, 1 on failure, 2 on bad usage.
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
@@ -16,6 +18,7 @@
 #include "slam/core/error.hpp"
 #include "slam/core/trajectory.hpp"
 #include "slam/dataset/sequence.hpp"
+#include "slam/mapdb/atomic_file.hpp"
 #include "slam/settings/settings.hpp"
 #include "slam/system/system.hpp"
 
@@ -58,7 +61,10 @@ int run(int argc, char** argv) {
   const auto entries = read_associations(argv[4]);
   if (entries.empty()) throw coloc::Error("no frames in the associations file", {argv[4]});
   const double depth_factor = settings.depth ? settings.depth->depth_map_factor : 5000.0;
-  coloc::slam::system::System slam(settings, vocabulary);
+  // An unwritable map destination is an error before the run, not after it.
+  if (!settings.save_map.empty()) coloc::slam::mapdb::AtomicFile probe(settings.save_map);
+  const auto system = coloc::slam::system::open_system(settings, vocabulary, {}, settings.load_map);
+  auto& slam = *system;
   for (const Entry& e : entries) {
     const cv::Mat color = coloc::dataset::to_camera_order(
         coloc::dataset::read_image(sequence / e.rgb), settings.rgb_order);
@@ -66,6 +72,11 @@ int run(int argc, char** argv) {
     slam.track(color, depth, e.timestamp);
   }
   slam.shutdown();
+  if (!settings.save_map.empty()) {
+    const auto report = slam.save_map(settings.save_map);
+    std::cerr << "map saved to " << settings.save_map.string() << ": " << report.keyframes
+              << " keyframes, " << report.points << " points\n";
+  }
   coloc::write_tum_trajectory("CameraTrajectory.txt", slam.trajectory());
   coloc::write_tum_trajectory("KeyFrameTrajectory.txt", slam.keyframe_trajectory());
   std::cerr << slam.summary().describe() << "\n";

@@ -9,8 +9,11 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// The shipped camera file for the sequence's format.
+// The sequence's own camera.yaml (the twin writes one), else the shipped camera file for the
+// sequence's format.
 fs::path default_config(const dataset::Sequence& sequence) {
+  if (fs::is_regular_file(sequence.folder() / "camera.yaml"))
+    return sequence.folder() / "camera.yaml";
   const fs::path dir = source_dir() / "Examples/RGB-D";
   if (sequence.format() == "7scenes") return dir / "7Scenes.yaml";
   if (sequence.format() == "tum") return dir / "TUM1.yaml";

@@ -17,7 +17,8 @@ struct SlamInputs {
   std::unique_ptr<dataset::Sequence> sequence;
 };
 
-// Empty `config`: Examples/RGB-D/TUM1.yaml or 7Scenes.yaml by the sequence's format.
+// Empty `config`: the sequence folder's camera.yaml (twin sequences), else
+// Examples/RGB-D/TUM1.yaml or 7Scenes.yaml by the sequence's format.
 SlamInputs load_slam_inputs(const std::filesystem::path& sequence,
                             const std::filesystem::path& config);
 

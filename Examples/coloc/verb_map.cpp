@@ -16,12 +16,14 @@
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/row_progress.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
+#include "Examples/coloc/slam_run.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "slam/bow/vocabulary.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/progress.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/dataset/sequence.hpp"
+#include "slam/dataset/slice.hpp"
 #include "slam/eval/trajectory_error.hpp"
 #include "slam/mapdb/atomic_file.hpp"
 #include "slam/mapdb/mapdb.hpp"
@@ -35,7 +37,9 @@ namespace fs = std::filesystem;
 
 struct MapArgs {
   fs::path sequence, config, vocabulary, trajectory, keyframes;
-  fs::path save;  // map file (slam/mapdb), written after the run
+  fs::path save;       // map file (slam/mapdb), written after the run
+  fs::path load;       // map file to continue
+  std::string frames;  // "A:B": only these frames of the sequence
   bool sequential = false;
   bool no_global_ba = false;
   bool no_loop = false;
@@ -43,77 +47,11 @@ struct MapArgs {
   int runs = 1;
 };
 
-struct RunResult {
-  slam::system::SystemSummary summary;
-  Trajectory trajectory, keyframes;  // after the global BA when it ran
-  std::optional<eval::AteResult> ate;
-  // The trajectory as tracking left it (before the global BA), and the BA's report.
-  std::optional<eval::AteResult> ate_online;
-  std::optional<slam::mapping::GlobalBaReport> global_ba;
-  std::size_t skipped_frames = 0;  // unreadable images (named in the log)
-};
-
-std::optional<eval::AteResult> ate_of(const dataset::Sequence& sequence, const Trajectory& t) {
-  if (sequence.ground_truth().empty() || t.size() < 3) return std::nullopt;
-  return eval::compute_ate(sequence.ground_truth(), t);
-}
-
-// `finished` (optional) sees the System once the run and its global BA are done.
-RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& settings,
-                   const slam::bow::Vocabulary& vocabulary, bool sequential, bool global_ba,
-                   bool loop = true,
-                   const std::function<void(const slam::system::System&)>& finished = {}) {
-  slam::system::SystemOptions options;
-  options.tracking.wait_for_sink = sequential;
-  options.loop.enabled = loop;
-  slam::system::System slam(settings, vocabulary, options);
-  Progress progress("slam", sequence.size());
-  RunResult r;
-  for (std::size_t i = 0; i < sequence.size(); ++i) {
-    progress.set(i + 1);
-    dataset::Frame frame;
-    try {
-      frame = sequence.frame(i);
-    } catch (const Error& e) {
-      // One unreadable image must not cost the whole session: skip it, say which, go on.
-      spdlog::warn("frame {} skipped: {}", i, e.what());
-      ++r.skipped_frames;
-      continue;
-    }
-    slam.track(dataset::to_camera_order(frame.color, settings.rgb_order), frame.depth,
-               frame.timestamp);
-  }
+void save_finished_map(const slam::system::System& slam, const fs::path& path, bool json) {
+  RowProgress progress("saving the map", json);
+  const slam::mapdb::SaveReport report = slam.save_map(path, {.progress = progress.callback()});
   progress.finish();
-  if (r.skipped_frames == sequence.size())
-    throw Error("no frame of the sequence could be read (see the warnings)");
-  slam.shutdown();
-  r.ate_online = ate_of(sequence, slam.trajectory());
-  if (global_ba) r.global_ba = slam.optimize_map();
-  r.summary = slam.summary();
-  r.trajectory = slam.trajectory();
-  r.keyframes = slam.keyframe_trajectory();
-  r.ate = ate_of(sequence, r.trajectory);
-  if (finished) finished(slam);
-  return r;
-}
-
-// The finished map into a map file (slam/mapdb), with the settings file's text.
-void save_finished_map(const slam::system::System& slam, const MapArgs& args, const SlamInputs& in,
-                       const slam::bow::Vocabulary& vocabulary) {
-  slam::mapdb::MapMetadata metadata;
-  metadata.vocabulary_checksum = slam::mapdb::vocabulary_checksum(vocabulary);
-  metadata.vocabulary_words = vocabulary.word_count();
-  std::ifstream config(in.config);
-  std::ostringstream text;
-  text << config.rdbuf();
-  metadata.settings = text.str();
-  metadata.camera = in.settings.camera;
-  RowProgress progress("saving the map", args.json);
-  const slam::mapdb::SaveReport report = slam.with_map([&](const slam::map::Map& m) {
-    return slam::mapdb::save_map(m, metadata, args.save, {.progress = progress.callback()});
-  });
-  progress.finish();
-  spdlog::info("map saved to {}: {} keyframes, {} points, {} bytes", args.save.string(),
+  spdlog::info("map saved to {}: {} keyframes, {} points, {} bytes", path.string(),
                report.keyframes, report.points, report.bytes);
 }
 
@@ -131,18 +69,31 @@ struct MapInputs {
 };
 
 MapInputs load_inputs(const MapArgs& args) {
-  return {load_slam_inputs(args.sequence, args.config), load_vocabulary(args.vocabulary)};
+  MapInputs in{load_slam_inputs(args.sequence, args.config), load_vocabulary(args.vocabulary)};
+  if (!args.frames.empty()) {
+    const auto [first, last] = dataset::parse_frame_range(args.frames, "--frames");
+    in.slam.sequence = dataset::slice(std::move(in.slam.sequence), first, last);
+  }
+  return in;
 }
 
-void run_map(const MapArgs& args) {
+void run_map(const MapArgs& given) {
+  MapArgs args = given;
+  const MapInputs in = load_inputs(args);
+  // ORB-SLAM3's System.LoadAtlasFromFile / SaveAtlasToFile when the command line names none.
+  if (args.load.empty()) args.load = in.slam.settings.load_map;
+  if (args.save.empty()) args.save = in.slam.settings.save_map;
   // An unwritable map destination is an error before the run, not after it.
   if (!args.save.empty()) slam::mapdb::AtomicFile probe(args.save);
-  const MapInputs in = load_inputs(args);
-  const RunResult r =
-      run_slam(*in.slam.sequence, in.slam.settings, in.vocabulary, args.sequential,
-               !args.no_global_ba, !args.no_loop, [&](const slam::system::System& slam) {
-                 if (!args.save.empty()) save_finished_map(slam, args, in.slam, in.vocabulary);
-               });
+  const RunOptions run{.sequential = args.sequential,
+                       .global_ba = !args.no_global_ba,
+                       .loop = !args.no_loop,
+                       .load = args.load};
+  const RunResult r = run_slam(*in.slam.sequence, in.slam.settings, in.vocabulary, run,
+                               [&](const slam::system::System& slam) {
+                                 if (!args.save.empty())
+                                   save_finished_map(slam, args.save, args.json);
+                               });
   write_tum_trajectory(args.trajectory, r.trajectory);
   if (!args.keyframes.empty()) write_tum_trajectory(args.keyframes, r.keyframes);
   const auto& s = r.summary;
@@ -161,6 +112,8 @@ void run_map(const MapArgs& args) {
                 {"ms_per_frame_p99", s.total_ms.p99},
                 {"ate_rmse_m", r.ate ? Json(r.ate->translation.rmse) : Json()},
                 {"ate_rmse_online_m", r.ate_online ? Json(r.ate_online->translation.rmse) : Json()},
+                {"ate_keyframes_rmse_m",
+                 r.ate_keyframes ? Json(r.ate_keyframes->translation.rmse) : Json()},
                 {"skipped_frames", r.skipped_frames}});
   } else {
     std::cout << s.describe() << "\n";
@@ -175,6 +128,9 @@ void run_map(const MapArgs& args) {
     if (r.ate)
       std::cout << "ATE RMSE " << r.ate->translation.rmse << " m over " << r.ate->translation.count
                 << " poses\n";
+    if (r.ate_keyframes)
+      std::cout << "keyframe ATE RMSE " << r.ate_keyframes->translation.rmse << " m over "
+                << r.ate_keyframes->translation.count << " keyframes\n";
     std::cout << "trajectory: " << args.trajectory.string() << "\n";
   }
 }
@@ -192,8 +148,8 @@ void run_bench(const MapArgs& args) {
               "loops");
   std::vector<double> ate_online, ate_final;
   for (int run = 0; run < args.runs; ++run) {
-    const RunResult r =
-        run_slam(*sequence, settings, vocabulary, args.sequential, true, !args.no_loop);
+    const RunResult r = run_slam(*sequence, settings, vocabulary,
+                                 {.sequential = args.sequential, .loop = !args.no_loop});
     if (r.ate_online) ate_online.push_back(1e3 * r.ate_online->translation.rmse);
     if (r.ate) ate_final.push_back(1e3 * r.ate->translation.rmse);
     const auto& s = r.summary;
@@ -240,6 +196,12 @@ void add_map_verb(CLI::App& app, CLI::App& bench) {
   map->add_option("--trajectory", args->trajectory, "Output trajectory (TUM format)")->required();
   map->add_option("--keyframes", args->keyframes, "Output keyframe trajectory (TUM format)");
   map->add_option("--save", args->save, "Save the finished map to this file (SQLite map database)");
+  map->add_option("--load", args->load,
+                  "Continue this saved map: the sequence relocalizes into it and extends it")
+      ->check(CLI::ExistingFile);
+  map->add_option("--frames", args->frames,
+                  "Only frames FIRST:LAST of the sequence (0-based, LAST excluded; either may be "
+                  "empty)");
   map->add_flag("--sequential", args->sequential,
                 "Tracking waits for local mapping after each keyframe");
   map->add_flag("--no-global-ba", args->no_global_ba,

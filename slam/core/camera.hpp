@@ -33,6 +33,7 @@ struct PinholeCamera {
   Eigen::Vector2d distort(const Eigen::Vector2d& xy) const;
   Eigen::Matrix2d distort_jacobian(const Eigen::Vector2d& xy) const;
   Eigen::Vector2d undistort(const Eigen::Vector2d& xy_distorted) const;
+  bool operator==(const PinholeCamera&) const = default;
 };
 
 struct KannalaBrandtCamera {
@@ -50,6 +51,7 @@ struct KannalaBrandtCamera {
   double distort_angle(double theta) const;
   // Inverse of distort_angle by Newton's method.
   double undistort_angle(double theta_d) const;
+  bool operator==(const KannalaBrandtCamera&) const = default;
 };
 
 using Camera = std::variant<PinholeCamera, KannalaBrandtCamera>;

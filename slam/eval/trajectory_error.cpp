@@ -117,4 +117,22 @@ RpeResult compute_rpe(const Trajectory& ground_truth, const Trajectory& estimate
   return r;
 }
 
+std::optional<SE3> nearest_pose(const Trajectory& trajectory, double timestamp, double max_dt) {
+  const StampedPose* best = nullptr;
+  for (const StampedPose& p : trajectory)
+    if (!best || std::abs(p.timestamp - timestamp) < std::abs(best->timestamp - timestamp))
+      best = &p;
+  if (!best || std::abs(best->timestamp - timestamp) > max_dt) return std::nullopt;
+  return best->world_from_cam;
+}
+
+std::optional<PoseError> relative_pose_error(const Trajectory& ground_truth, double time_a,
+                                             double time_b, const SE3& b_from_a, double max_dt) {
+  const auto world_from_a = nearest_pose(ground_truth, time_a, max_dt);
+  const auto world_from_b = nearest_pose(ground_truth, time_b, max_dt);
+  if (!world_from_a || !world_from_b) return std::nullopt;
+  const SE3 error = (world_from_b->inverse() * *world_from_a).inverse() * b_from_a;
+  return PoseError{error.translation().norm(), error.so3().log().norm() * 180.0 / M_PI};
+}
+
 }  // namespace coloc::eval

@@ -9,6 +9,7 @@
 // Statistics: RMSE, mean, median, population standard deviation, min, max (numpy's
 // definitions, as both tools use).
 
+#include <optional>
 #include <vector>
 
 #include "slam/core/sim3.hpp"
@@ -58,6 +59,20 @@ struct RpeResult {
   std::vector<double> translation_errors;
   std::vector<double> rotation_errors;
 };
+
+// The pose of `trajectory` nearest in time to `timestamp`, if one is within max_dt.
+std::optional<SE3> nearest_pose(const Trajectory& trajectory, double timestamp,
+                                double max_dt = 0.02);
+
+// How far an estimated relative pose b_from_a (e.g. what a loop closure asserted between two
+// keyframes) is from the truth: translation (metres) and rotation (degrees) of
+// (gt_b^-1 gt_a)^-1 b_from_a. Empty when either time has no ground truth within max_dt.
+struct PoseError {
+  double translation = 0.0, rotation_deg = 0.0;
+};
+std::optional<PoseError> relative_pose_error(const Trajectory& ground_truth, double time_a,
+                                             double time_b, const SE3& b_from_a,
+                                             double max_dt = 0.02);
 
 RpeResult compute_rpe(const Trajectory& ground_truth, const Trajectory& estimate,
                       const RpeOptions& options = {});

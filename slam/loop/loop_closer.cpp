@@ -163,15 +163,31 @@ void LoopCloser::correct(const LoopVerification& v, const LoopCandidate& c) {
   Stopwatch watch;
   pause_for_correction();
   CorrectionReport report;
+  LoopRecord r;
   {
     std::lock_guard lock(shared_.mutex);
+    if (const map::Keyframe* kf = shared_.map.keyframe(v.current))
+      r.current_time = kf->frame.timestamp;
+    if (const map::Keyframe* kf = shared_.map.keyframe(c.keyframe)) {
+      r.candidate_time = kf->frame.timestamp;
+      r.candidate_from_current = kf->cam_from_world() * v.corrected_cam_from_world.inverse();
+    }
     report = correct_loop(shared_.map, v, options_);
   }
   if (mapper_) mapper_->resume();
   detector_.reset();
-  LoopRecord r{v.current,      c.keyframe,       c.score,      c.consistency,
-               v.bow_matches,  v.ransac_inliers, v.inliers,    v.path_m,
-               v.correction_m, v.correction_rad, report.fused, watch.elapsed_ms()};
+  r.current = v.current;
+  r.candidate = c.keyframe;
+  r.score = c.score;
+  r.consistency = c.consistency;
+  r.bow_matches = v.bow_matches;
+  r.ransac_inliers = v.ransac_inliers;
+  r.inliers = v.inliers;
+  r.path_m = v.path_m;
+  r.correction_m = v.correction_m;
+  r.correction_rad = v.correction_rad;
+  r.fused = report.fused;
+  r.ms = watch.elapsed_ms();
   spdlog::info(
       "loop closed: keyframe {} -> {} (score {:.3f}, consistency {}, bow {}, ransac {}, inliers "
       "{}, correction {:.3f} m / {:.4f} rad over {:.2f} m of path, {} neighbours moved, {} "

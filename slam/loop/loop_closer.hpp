@@ -32,6 +32,8 @@ namespace coloc::slam::loop {
 
 struct LoopRecord {
   KeyframeId current, candidate;
+  double current_time = 0.0, candidate_time = 0.0;  // the two keyframes' frame timestamps
+  SE3 candidate_from_current;                       // as verified (what the loop asserts)
   double score = 0.0;
   int consistency = 0, bow_matches = 0, ransac_inliers = 0, inliers = 0;
   double path_m = 0.0, correction_m = 0.0, correction_rad = 0.0;

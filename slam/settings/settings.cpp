@@ -152,6 +152,18 @@ OrbSettings read_orb(KeyReader& keys) {
   return o;
 }
 
+// ORB-SLAM3 v1.0's atlas file keys name our map database: a name without an extension gets
+// ".db" (ORB-SLAM3 appends ".osa"); relative paths stay relative to the working directory, as
+// there.
+std::filesystem::path map_file(KeyReader& keys, const std::string& key) {
+  const auto name = keys.text(key);
+  if (!name) return {};
+  if (name->empty()) keys.fail(key, "empty file name");
+  std::filesystem::path p(*name);
+  if (!p.has_extension()) p += ".db";
+  return p;
+}
+
 }  // namespace
 
 Settings load_settings(const std::filesystem::path& path) {
@@ -175,6 +187,9 @@ Settings load_settings(const std::filesystem::path& path) {
   s.markers.dictionary = keys.text("Markers.dictionary").value_or(s.markers.dictionary);
   s.markers.size = keys.number("Markers.size").value_or(s.markers.size);
   if (!(s.markers.size > 0.0)) keys.fail("Markers.size", "must be positive (metres)");
+
+  s.load_map = map_file(keys, "System.LoadAtlasFromFile");
+  s.save_map = map_file(keys, "System.SaveAtlasToFile");
 
   for (const auto& key : keys.keys()) {
     if (keys.used(key) || starts_with(key, "Viewer.")) continue;

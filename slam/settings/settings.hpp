@@ -8,9 +8,10 @@
 //    Camera.RGB, ORBextractor.*; Viewer.* is ignored.
 // coloc's own additions live in the same file under their own prefixes: Camera.readoutTime,
 // Markers.*, and Coloc.<option> for the SLAM options users tune (slam/system/tuning.hpp names
-// them; an unknown one is an error there). Any other key (ORB-SLAM3's IMU.*, System.*, ...) is
-// reported as a warning naming it: nothing reads it. A missing required key or a value of the
-// wrong type is a coloc::Error naming the key and the file.
+// them; an unknown one is an error there). ORB-SLAM3's System.LoadAtlasFromFile and
+// System.SaveAtlasToFile name the map database (slam/mapdb) to continue and to save. Any other
+// key (ORB-SLAM3's IMU.*, ...) is reported as a warning naming it: nothing reads it. A missing
+// required key or a value of the wrong type is a coloc::Error naming the key and the file.
 
 #include <filesystem>
 #include <map>
@@ -59,6 +60,9 @@ struct Settings {
   std::optional<DepthSettings> depth;
   OrbSettings orb;
   MarkerSettings markers;
+  // System.LoadAtlasFromFile / System.SaveAtlasToFile (ORB-SLAM3 v1.0): the map database to
+  // continue and to save to (".db" added to a name without extension); empty when absent.
+  std::filesystem::path load_map, save_map;
   // Coloc.<option>: value, by option name (without the prefix); numbers, booleans as 0 / 1.
   std::map<std::string, double> coloc_options;
   // Unknown keys, in file order (also logged as warnings).

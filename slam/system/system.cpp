@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <fstream>
 #include <sstream>
 #include <string>
 #include <variant>
@@ -96,6 +97,32 @@ System::~System() {
 void System::shutdown() {
   if (mapper_) mapper_->stop();
   if (loop_closer_) loop_closer_->stop();
+  running_ = false;
+}
+
+mapdb::MapMetadata System::metadata() const {
+  mapdb::MapMetadata m;
+  // The checksum serializes the vocabulary (tens of ms): once per save is fine.
+  m.vocabulary_checksum = mapdb::vocabulary_checksum(vocabulary_);
+  m.vocabulary_words = vocabulary_.word_count();
+  if (!settings_.source.empty()) {
+    std::ifstream file(settings_.source);
+    std::ostringstream text;
+    text << file.rdbuf();
+    m.settings = text.str();
+  }
+  m.camera = settings_.camera;
+  m.frame_name = frame_name_;
+  m.frame_from_slam = frame_from_slam_;
+  return m;
+}
+
+mapdb::SaveReport System::save_map(const std::filesystem::path& path,
+                                   const mapdb::SaveOptions& options) const {
+  const mapdb::MapMetadata m = metadata();
+  if (running_) return mapdb::save_live_map(shared_->map, shared_->mutex, m, path, options);
+  std::lock_guard lock(shared_->mutex);
+  return mapdb::save_map(shared_->map, m, path, options);
 }
 
 mapping::GlobalBaReport System::optimize_map(const mapping::GlobalBaOptions& options) {
@@ -107,6 +134,41 @@ mapping::GlobalBaReport System::optimize_map(const mapping::GlobalBaOptions& opt
       report.keyframes, report.points, report.observations, report.outliers, report.initial_rms_px,
       report.final_rms_px, report.iterations, report.ms);
   return report;
+}
+
+namespace {
+
+// The same model and intrinsics (the image size may be unknown on one side).
+bool same_intrinsics(Camera a, const Camera& b) {
+  std::visit(
+      [&](auto& camera) {
+        camera.width = image_width(b);
+        camera.height = image_height(b);
+      },
+      a);
+  return a == b;
+}
+
+}  // namespace
+
+System::System(const settings::Settings& settings, const bow::Vocabulary& vocabulary,
+               SystemOptions options, mapdb::LoadedMap loaded)
+    : System(settings, vocabulary, options) {
+  {
+    // Nothing has run yet: no frame tracked, the mapping threads wait on empty queues.
+    std::lock_guard lock(shared_->mutex);
+    shared_->map = std::move(loaded.map);
+    shared_->database = std::move(loaded.database);
+  }
+  frame_name_ = loaded.metadata.frame_name;
+  frame_from_slam_ = loaded.metadata.frame_from_slam;
+  if (loaded.metadata.camera && !same_intrinsics(*loaded.metadata.camera, settings.camera))
+    spdlog::warn("{}: the map was made with another camera model; its keyframes keep theirs",
+                 settings.source.string());
+  // A tracker built for a known image size saw the empty map: build it again for this one.
+  if (tracker_) start_tracking(image_width(settings_.camera), image_height(settings_.camera));
+  spdlog::info("continuing a map of {} keyframes and {} points (frame '{}')",
+               shared_->map.keyframe_count(), shared_->map.point_count(), frame_name_);
 }
 
 tracking::TrackingResult System::track(const cv::Mat& image, const cv::Mat& depth,
@@ -168,7 +230,7 @@ SystemSummary System::summary() const {
     s.keyframes = shared_->map.keyframe_count();
     s.points = shared_->map.point_count();
   }
-  s.relocalizations = tracker_->relocalizations();
+  s.relocalizations = tracker_ ? tracker_->relocalizations() : 0;
   s.mapping = mapper_->stats();
   if (loop_closer_) s.loop = loop_closer_->stats();
   std::vector<double> total(extract_ms_.size());
@@ -181,6 +243,17 @@ SystemSummary System::summary() const {
   s.local_map_ms = summarize(local_map_ms_);
   s.keyframe_ms = summarize(keyframe_ms_);
   return s;
+}
+
+std::unique_ptr<System> open_system(const settings::Settings& settings,
+                                    const bow::Vocabulary& vocabulary, SystemOptions options,
+                                    const std::filesystem::path& load_map,
+                                    const mapdb::ProgressFn& progress) {
+  if (load_map.empty()) return std::make_unique<System>(settings, vocabulary, options);
+  mapdb::LoadOptions load;
+  load.progress = progress;
+  return std::make_unique<System>(settings, vocabulary, options,
+                                  mapdb::load_map(load_map, vocabulary, load));
 }
 
 }  // namespace coloc::slam::system

@@ -5,8 +5,10 @@
 // shared under SharedMap::mutex. `tracking.wait_for_sink` makes it sequential.
 // Construct, call track() per frame, then shutdown() (also done by the destructor) and read
 // the trajectory. Not copyable; track() must be called from one thread at a time.
+#include <filesystem>
 #include <memory>
 #include <opencv2/core/mat.hpp>
+#include <optional>
 #include <string>
 
 #include "slam/bow/vocabulary.hpp"
@@ -14,6 +16,7 @@
 #include "slam/core/trajectory.hpp"
 #include "slam/loop/loop_closer.hpp"
 #include "slam/map/shared_map.hpp"
+#include "slam/mapdb/mapdb.hpp"
 #include "slam/mapping/global_ba.hpp"
 #include "slam/mapping/local_mapper.hpp"
 #include "slam/settings/settings.hpp"
@@ -45,6 +48,12 @@ class System {
   // Camera.RGB sets tracking.rgb_input. `vocabulary` must outlive the System.
   System(const settings::Settings& settings, const bow::Vocabulary& vocabulary,
          SystemOptions options = {});
+  // Continues a saved map (mapdb::load_map with the same vocabulary): the first frames
+  // relocalize into it, then tracking and mapping extend it (one frame of reference, loops
+  // closed across recordings). Until a frame relocalizes, nothing is added to the map. The
+  // map's metadata (its frame name and registration) carries over to save_map().
+  System(const settings::Settings& settings, const bow::Vocabulary& vocabulary,
+         SystemOptions options, mapdb::LoadedMap loaded);
   ~System();
   System(const System&) = delete;
   System& operator=(const System&) = delete;
@@ -58,6 +67,14 @@ class System {
   // Global bundle adjustment of the finished map (shuts local mapping down first). For offline
   // mapping: the trajectory and the map then reflect all observations at once.
   mapping::GlobalBaReport optimize_map(const mapping::GlobalBaOptions& options = {});
+
+  // Saves the map (slam/mapdb). While mapping runs, a live save (tracking is held up only for
+  // short copies; the file is the map as of one moment); after shutdown(), the finished map.
+  // The metadata carries the vocabulary checksum, the settings file's text, the camera, and
+  // the frame of a continued map. Throws coloc::Error naming the file; the previous file is
+  // then intact.
+  mapdb::SaveReport save_map(const std::filesystem::path& path,
+                             const mapdb::SaveOptions& options = {}) const;
 
   // world_from_cam of every tracked frame (after initialization), following keyframe updates.
   Trajectory trajectory() const;
@@ -74,6 +91,8 @@ class System {
   // Builds the frame geometry and the tracker for images of this size.
   void start_tracking(int width, int height);
 
+  mapdb::MapMetadata metadata() const;
+
   SystemOptions options_;
   settings::Settings settings_;  // Camera width/height filled in by start_tracking()
   const bow::Vocabulary& vocabulary_;
@@ -83,7 +102,18 @@ class System {
   std::unique_ptr<loop::LoopCloser> loop_closer_;  // before mapper_: the mapper pushes into it
   std::unique_ptr<mapping::LocalMapper> mapper_;
   std::unique_ptr<tracking::Tracker> tracker_;
+  // The continued map's frame and registration (save_map keeps them); "slam" otherwise.
+  std::string frame_name_ = "slam";
+  std::optional<Sim3> frame_from_slam_;
+  bool running_ = true;  // mapping threads not yet shut down
   std::vector<double> extract_ms_, track_ms_, pose_ms_, local_map_ms_, keyframe_ms_;
 };
+
+// A new System, or (with `load_map`) one continuing that saved map; progress of the load on
+// `progress` (optional). Throws coloc::Error naming the file when the map does not load.
+std::unique_ptr<System> open_system(const settings::Settings& settings,
+                                    const bow::Vocabulary& vocabulary, SystemOptions options,
+                                    const std::filesystem::path& load_map,
+                                    const mapdb::ProgressFn& progress = {});
 
 }  // namespace coloc::slam::system

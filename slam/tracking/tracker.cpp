@@ -56,13 +56,12 @@ Tracker::Tracker(map::SharedMap& map, map::KeyframeSink* sink, const bow::Vocabu
       options_(options) {
   options_.check();
   geometry_->check();
-  if (!sink_) {
-    std::lock_guard lock(shared_.mutex);
-    if (shared_.map.keyframe_count() == 0)
-      throw Error("Tracker: localization only (no keyframe sink) needs a map with keyframes");
-    // Nothing to initialize: the first frame relocalizes in the given map.
-    state_ = TrackingState::kLost;
-  }
+  std::lock_guard lock(shared_.mutex);
+  if (!sink_ && shared_.map.keyframe_count() == 0)
+    throw Error("Tracker: localization only (no keyframe sink) needs a map with keyframes");
+  // A map that already holds keyframes (a loaded one) has its frame of reference: the first
+  // frame relocalizes into it instead of starting a new map, and mapping then extends it.
+  if (shared_.map.keyframe_count() > 0) state_ = TrackingState::kLost;
 }
 
 cv::Mat to_grey(const cv::Mat& image, bool rgb) {
@@ -425,7 +424,9 @@ bool Tracker::need_keyframe() const {
   const bool need_close = tracked_close < options_.close_tracked_limit &&
                           untracked_close > options_.close_untracked_limit;
   const double ref_ratio = n_kfs < 2 ? 0.4 : 0.75;
-  const std::uint64_t since_kf = current_.id.value() - last_keyframe_frame_.value();
+  // No keyframe of this tracker yet (relocalized into a loaded map): as if long ago.
+  const std::uint64_t since_kf =
+      last_keyframe_frame_.valid() ? current_.id.value() - last_keyframe_frame_.value() : ~0ULL;
   const bool c1a = since_kf >= max_frames;
   const bool c1b =
       since_kf >= static_cast<std::uint64_t>(options_.min_frames_between_keyframes) && mapping_idle;

@@ -5,7 +5,8 @@
 // tracking, and the keyframe decision (ORB-SLAM's criteria with the RGB-D close-points rule).
 // New keyframes (with their close-depth points) go into the map at once and their ids to the
 // keyframe sink (local mapping). Without a sink the tracker localizes in the map it is given and
-// never adds keyframes or points to it (localization only).
+// never adds keyframes or points to it (localization only). Given a map that already holds
+// keyframes, the tracker relocalizes into it first and (with a sink) continues it.
 //
 // Threads: track() is called from one thread; it holds SharedMap::mutex while it reads or
 // writes the map, not while it extracts features.
@@ -83,8 +84,9 @@ cv::Mat to_grey(const cv::Mat& image, bool rgb);
 class Tracker {
  public:
   // `map`, `vocabulary` and `sink` must outlive the tracker. `sink` null: localization only, in
-  // a map that must already hold keyframes (coloc::Error otherwise); the first frame then
-  // relocalizes.
+  // a map that must already hold keyframes (coloc::Error otherwise). When the map holds
+  // keyframes (loaded, or localization only) the first frame relocalizes into it; with a sink,
+  // tracking then extends that map (continue mapping: one frame of reference).
   Tracker(map::SharedMap& map, map::KeyframeSink* sink, const bow::Vocabulary& vocabulary,
           std::shared_ptr<const frame::FrameGeometry> geometry,
           const features::ExtractorOptions& extractor, const Camera& camera,

@@ -2,11 +2,13 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <opencv2/core.hpp>
 
 #include "slam/core/error.hpp"
 #include "slam/dataset/image_folder.hpp"
 #include "slam/dataset/sequence.hpp"
+#include "slam/dataset/slice.hpp"
 #include "tests/testing/data.hpp"
 
 namespace coloc::dataset {
@@ -47,6 +49,32 @@ TEST(TumSequence, ReadsAssociationsFile) {
   EXPECT_FALSE(last.color.empty());
   EXPECT_FALSE(last.depth.empty());
   EXPECT_FALSE(seq->ground_truth().empty());
+}
+
+// coloc map --frames A:B: the slice reads the whole sequence's frames A..B-1, nothing else.
+TEST(SequenceSlice, ReadsTheRangeOnly) {
+  COLOC_REQUIRE_DATA(dir, "tum_fr1_rpy_180f");
+  const auto whole = open_sequence(dir);
+  const double t10 = whole->timestamp(10), t19 = whole->timestamp(19);
+  const auto part = slice(open_sequence(dir), 10, 20);
+  EXPECT_EQ(part->size(), 10u);
+  EXPECT_DOUBLE_EQ(part->timestamp(0), t10);
+  EXPECT_DOUBLE_EQ(part->frame(9).timestamp, t19);
+  EXPECT_EQ(part->ground_truth().size(), whole->ground_truth().size());
+  EXPECT_EQ(slice(open_sequence(dir), 170, 1000)->size(), 10u);  // clamped to the end
+  EXPECT_THROW(slice(open_sequence(dir), 180, 200), Error);      // empty
+  EXPECT_EQ(parse_frame_range("10:20", "--frames"),
+            std::make_pair(std::size_t{10}, std::size_t{20}));
+  EXPECT_EQ(parse_frame_range(":5", "--frames").first, 0u);
+  EXPECT_EQ(parse_frame_range("7:", "--frames").second, std::numeric_limits<std::size_t>::max());
+  for (const char* bad : {"10", "a:3", "-1:4", "3:x", "1.5:4"}) {
+    try {
+      parse_frame_range(bad, "--frames");
+      ADD_FAILURE() << bad;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("--frames"), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(SevenScenesSequence, ReadsFramesPosesAndInvalidDepth) {

@@ -126,6 +126,25 @@ TEST(Rpe, KnownAnswer) {
   EXPECT_THROW(compute_rpe(gt, est, {.delta = 40}), Error);
 }
 
+// What `coloc bench loop` judges a loop by: the relative pose it asserted against the truth.
+TEST(RelativePoseError, NearestPosesAndKnownError) {
+  const Trajectory gt = circle(50);
+  EXPECT_TRUE(nearest_pose(gt, 0.033 * 7 + 0.01).has_value());
+  EXPECT_FALSE(nearest_pose(gt, 0.033 * 49 + 0.5).has_value());
+  const SE3 b_from_a = gt[20].world_from_cam.inverse() * gt[3].world_from_cam;
+  const auto exact = relative_pose_error(gt, gt[3].timestamp, gt[20].timestamp, b_from_a);
+  ASSERT_TRUE(exact);
+  EXPECT_NEAR(exact->translation, 0.0, 1e-12);
+  EXPECT_NEAR(exact->rotation_deg, 0.0, 1e-9);
+  // Off by 0.3 m along b's x axis and 2 degrees about its z axis.
+  const SE3 off = SE3(SO3::exp({0, 0, 2.0 * M_PI / 180.0}), Eigen::Vector3d(0.3, 0, 0)) * b_from_a;
+  const auto e = relative_pose_error(gt, gt[3].timestamp, gt[20].timestamp, off);
+  ASSERT_TRUE(e);
+  EXPECT_NEAR(e->rotation_deg, 2.0, 1e-9);
+  EXPECT_GT(e->translation, 0.2);  // 0.3 m, give or take the 2 degrees acting on the lever arm
+  EXPECT_FALSE(relative_pose_error(gt, -5.0, gt[20].timestamp, b_from_a).has_value());
+}
+
 TEST(Ate, TooFewAssociationsIsAnError) {
   Trajectory gt = circle(10);
   Trajectory est = circle(10);

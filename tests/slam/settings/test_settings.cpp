@@ -93,6 +93,20 @@ TEST(Settings, FisheyeOwnSectionsAndUnknownKeys) {
                                                   "IMU.NoiseGyro", "IMU.T_b_c1"}));
 }
 
+// ORB-SLAM3 v1.0's atlas keys name the map database to continue and to save; a bare name gets
+// ".db" as ORB-SLAM3 gives it ".osa".
+TEST(Settings, AtlasKeysNameTheMapDatabase) {
+  const auto path = write("atlas.yaml", std::string(kMinimal) +
+                                            "System.LoadAtlasFromFile: \"site\"\n"
+                                            "System.SaveAtlasToFile: \"maps/site_v2.db\"\n");
+  const Settings s = load_settings(path);
+  EXPECT_EQ(s.load_map, std::filesystem::path("site.db"));
+  EXPECT_EQ(s.save_map, std::filesystem::path("maps/site_v2.db"));
+  EXPECT_TRUE(s.warnings.empty());
+  const Settings none = load_settings(write("no_atlas.yaml", kMinimal));
+  EXPECT_TRUE(none.load_map.empty() && none.save_map.empty());
+}
+
 // Broken files: the error names the key and the file.
 void expect_error(const std::filesystem::path& path, const std::string& key) {
   try {

@@ -1,0 +1,66 @@
+#include "Examples/coloc/slam_run.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <memory>
+
+#include "Examples/coloc/row_progress.hpp"
+#include "slam/core/error.hpp"
+#include "slam/core/progress.hpp"
+
+namespace coloc::cli {
+namespace {
+
+std::optional<eval::AteResult> ate_of(const dataset::Sequence& sequence, const Trajectory& t) {
+  if (sequence.ground_truth().empty() || t.size() < 3) return std::nullopt;
+  return eval::compute_ate(sequence.ground_truth(), t);
+}
+
+}  // namespace
+
+RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& settings,
+                   const slam::bow::Vocabulary& vocabulary, const RunOptions& run,
+                   const std::function<void(const slam::system::System&)>& finished) {
+  slam::system::SystemOptions options;
+  options.tracking.wait_for_sink = run.sequential;
+  options.loop.enabled = run.loop;
+  std::unique_ptr<slam::system::System> system;
+  {
+    RowProgress progress("loading the map", false);
+    system =
+        slam::system::open_system(settings, vocabulary, options, run.load, progress.callback());
+    progress.finish();
+  }
+  slam::system::System& slam = *system;
+  Progress progress("slam", sequence.size());
+  RunResult r;
+  for (std::size_t i = 0; i < sequence.size(); ++i) {
+    progress.set(i + 1);
+    dataset::Frame frame;
+    try {
+      frame = sequence.frame(i);
+    } catch (const Error& e) {
+      // One unreadable image must not cost the whole session: skip it, say which, go on.
+      spdlog::warn("frame {} skipped: {}", i, e.what());
+      ++r.skipped_frames;
+      continue;
+    }
+    slam.track(dataset::to_camera_order(frame.color, settings.rgb_order), frame.depth,
+               frame.timestamp);
+  }
+  progress.finish();
+  if (r.skipped_frames == sequence.size())
+    throw Error("no frame of the sequence could be read (see the warnings)");
+  slam.shutdown();
+  r.ate_online = ate_of(sequence, slam.trajectory());
+  if (run.global_ba) r.global_ba = slam.optimize_map();
+  r.summary = slam.summary();
+  r.trajectory = slam.trajectory();
+  r.keyframes = slam.keyframe_trajectory();
+  r.ate = ate_of(sequence, r.trajectory);
+  r.ate_keyframes = ate_of(sequence, r.keyframes);
+  if (finished) finished(slam);
+  return r;
+}
+
+}  // namespace coloc::cli

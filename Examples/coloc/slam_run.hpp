@@ -1,0 +1,44 @@
+#pragma once
+// One SLAM run over a recorded sequence, as `coloc map`, `coloc bench track` and `coloc bench
+// loop` make it: a System (new, or continuing a saved map), every frame tracked (unreadable
+// ones skipped and counted), shutdown, the global BA of the finished map, and the accuracy of
+// what came out against the sequence's ground truth.
+#include <filesystem>
+#include <functional>
+#include <optional>
+
+#include "slam/bow/vocabulary.hpp"
+#include "slam/core/trajectory.hpp"
+#include "slam/dataset/sequence.hpp"
+#include "slam/eval/trajectory_error.hpp"
+#include "slam/mapping/global_ba.hpp"
+#include "slam/settings/settings.hpp"
+#include "slam/system/system.hpp"
+
+namespace coloc::cli {
+
+struct RunOptions {
+  bool sequential = false;     // tracking waits for local mapping after each keyframe
+  bool global_ba = true;       // of the finished map
+  bool loop = true;            // loop closing
+  std::filesystem::path load;  // a saved map to continue (empty: a new map)
+};
+
+struct RunResult {
+  slam::system::SystemSummary summary;
+  Trajectory trajectory, keyframes;  // after the global BA when it ran
+  std::optional<eval::AteResult> ate;
+  // Every keyframe of the map (a continued map's earlier ones too) against the ground truth.
+  std::optional<eval::AteResult> ate_keyframes;
+  // The trajectory as tracking left it (before the global BA), and the BA's report.
+  std::optional<eval::AteResult> ate_online;
+  std::optional<slam::mapping::GlobalBaReport> global_ba;
+  std::size_t skipped_frames = 0;  // unreadable images (named in the log)
+};
+
+// `finished` (optional) sees the System once the run and its global BA are done (to save it).
+RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& settings,
+                   const slam::bow::Vocabulary& vocabulary, const RunOptions& options,
+                   const std::function<void(const slam::system::System&)>& finished = {});
+
+}  // namespace coloc::cli
