@@ -85,7 +85,7 @@ def main():
     ok = True
     with tempfile.TemporaryDirectory() as tmp:
         twin = os.path.join(tmp, "twin")
-        gen = run([coloc, "twin", "generate", "--preset", "room", "--seed", "3", "--seconds", "2",
+        gen = run([coloc, "twin", "generate", "--preset", "room", "--seed", "3", "--seconds", "3",
                    "--no-scan", "--out", twin, "--json"])
         if gen.returncode != 0:
             print("twin generate failed:", gen.stderr[-2000:])
