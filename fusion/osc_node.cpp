@@ -63,6 +63,12 @@ void PoseServer::publish(const PoseMessage& pose) {
   endpoint_.publish(kPoseAddress, pose, options_.bundles);
 }
 
+void PoseServer::set_latest(const PoseMessage& pose) {
+  const std::lock_guard lock(mutex_);
+  latest_ = pose;
+  have_latest_ = true;
+}
+
 void PoseServer::handle(const OscPacket& packet) {
   for (const OscMessage& m : packet.messages) {
     if (m.address != kGetPoseAddress) continue;  // a pose sent to the server: not for us

@@ -74,6 +74,9 @@ class PoseServer {
 
   // Broadcast mode: sends /coloc/pose to every target; keeps it for on-demand requests.
   void publish(const PoseMessage& pose);
+  // On-demand mode only: the pose /coloc/get_pose answers with from now on, sent to no target
+  // (a localizer's lost frame: state 0, its time, the last pose it had).
+  void set_latest(const PoseMessage& pose);
   OscStats stats() const { return endpoint_.stats(); }
   std::uint64_t requests_answered() const { return answered_; }
 

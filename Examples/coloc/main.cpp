@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
   coloc::cli::add_eval_verb(app);
   coloc::cli::add_vocab_verb(app, bench);
   coloc::cli::add_map_verb(app, bench);
+  coloc::cli::add_localize_verb(app, bench);
   coloc::cli::add_loop_bench_verb(bench);
   coloc::cli::add_mapdb_verb(app, bench);
   coloc::cli::add_e57_verb(app, bench);

@@ -22,15 +22,24 @@ fs::path default_config(const dataset::Sequence& sequence) {
 
 }  // namespace
 
-SlamInputs load_slam_inputs(const fs::path& sequence, const fs::path& config) {
-  SlamInputs in;
-  in.config = config.empty() ? default_config(*dataset::open_sequence(sequence)) : config;
-  in.settings = settings::load_settings(in.config);
+fs::path default_config_for(const fs::path& sequence) {
+  return default_config(*dataset::open_sequence(sequence));
+}
+
+std::unique_ptr<dataset::Sequence> open_sequence_for(const fs::path& sequence,
+                                                     const settings::Settings& settings) {
   // The settings file's DepthMapFactor says how raw depth becomes metres (TUM 5000 per metre,
   // RealSense and the twin 1000): the sequence is read with it, not with the format's default.
   dataset::SequenceOptions options;
-  if (in.settings.depth) options.depth_scale = in.settings.depth->depth_map_factor;
-  in.sequence = dataset::open_sequence(sequence, options);
+  if (settings.depth) options.depth_scale = settings.depth->depth_map_factor;
+  return dataset::open_sequence(sequence, options);
+}
+
+SlamInputs load_slam_inputs(const fs::path& sequence, const fs::path& config) {
+  SlamInputs in;
+  in.config = config.empty() ? default_config_for(sequence) : config;
+  in.settings = settings::load_settings(in.config);
+  in.sequence = open_sequence_for(sequence, in.settings);
   return in;
 }
 

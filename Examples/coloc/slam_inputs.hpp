@@ -22,6 +22,13 @@ struct SlamInputs {
 SlamInputs load_slam_inputs(const std::filesystem::path& sequence,
                             const std::filesystem::path& config);
 
+// The sequence read with the settings' depth scale (DepthMapFactor).
+std::unique_ptr<dataset::Sequence> open_sequence_for(const std::filesystem::path& sequence,
+                                                     const settings::Settings& settings);
+
+// Empty `config`: the shipped file for the sequence's format (as load_slam_inputs picks it).
+std::filesystem::path default_config_for(const std::filesystem::path& sequence);
+
 // Empty path: the shipped Vocabulary/coloc_orb_k10_L5.cvoc.
 slam::bow::Vocabulary load_vocabulary(const std::filesystem::path& path);
 

@@ -20,6 +20,7 @@ namespace render = registration::render;
 struct TwinArgs {
   std::string preset = "room";
   std::uint64_t seed = 1;
+  int walk = 0;  // GenerateOptions::walk_variant
   std::string out;
   double seconds = 0.0;
   int face_size = 0;
@@ -35,6 +36,7 @@ struct TwinArgs {
 void run_generate(const TwinArgs& a) {
   twin::GenerateOptions o = twin::preset_options(twin::parse_preset(a.preset));
   o.seed = a.seed;
+  o.walk_variant = a.walk;
   o.max_duration = a.seconds;
   o.supersample = a.supersample;
   o.motion_blur = a.motion_blur;
@@ -176,6 +178,10 @@ void add_twin_verb(CLI::App& app, CLI::App& bench) {
   gen->add_option("--seed", args->seed, "Random seed (same seed, same files)")
       ->capture_default_str();
   gen->add_option("--out", args->out, "Output directory")->required();
+  gen->add_option("--walk", args->walk,
+                  "Another walk through the same building: 1 / 2 = 0.25 m left / right of the "
+                  "preset's path, other head motion (scene and scan unchanged)")
+      ->check(CLI::Range(0, 2));
   gen->add_option("--seconds", args->seconds, "Limit the sequence to this many seconds (0 = all)");
   gen->add_option("--face-size", args->face_size, "Scan cube-face size in pixels (default 2048)");
   gen->add_option("--point-step", args->point_step, "One scan point every N face pixels");

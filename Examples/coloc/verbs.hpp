@@ -14,6 +14,8 @@ void add_eval_verb(CLI::App& app);
 void add_frame_limit_verb(CLI::App& eval);
 void add_vocab_verb(CLI::App& app, CLI::App& bench);
 void add_map_verb(CLI::App& app, CLI::App& bench);
+// `coloc localize` and `coloc bench localize` (verb_localize.cpp).
+void add_localize_verb(CLI::App& app, CLI::App& bench);
 // `coloc bench loop` (verb_loop_bench.cpp).
 void add_loop_bench_verb(CLI::App& bench);
 // `coloc mapdb ...` and `coloc bench mapdb` (verb_mapdb.cpp, verb_mapdb_bench.cpp).

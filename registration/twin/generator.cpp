@@ -145,13 +145,13 @@ void write_summary(const fs::path& path, const GenerateOptions& o, const Generat
   std::ofstream out(path);
   if (!out) throw Error("cannot write", {.file = path.string()});
   out << "%YAML:1.0\n# coloc digital twin (registration/twin/generator.hpp describes the files)\n"
-      << "preset: " << preset_name(o.preset) << "\nseed: " << o.seed << "\nframes: " << s.frames
-      << "\nfps: " << o.fps << "\nimu_samples: " << s.imu_samples
-      << "\nheadset_poses: " << s.headset_poses << "\nstations: " << s.stations
-      << "\nscan_points: " << s.scan_points << "\nmarkers: " << s.markers
-      << "\nmarker_dictionary: " << o.dictionary << "\nmarker_size: " << o.marker_size
-      << "\ntriangles: " << s.triangles << "\npath_length: " << s.path_length
-      << "\nscan_face_size: " << o.scan.face_size << "\n";
+      << "preset: " << preset_name(o.preset) << "\nseed: " << o.seed
+      << "\nwalk_variant: " << o.walk_variant << "\nframes: " << s.frames << "\nfps: " << o.fps
+      << "\nimu_samples: " << s.imu_samples << "\nheadset_poses: " << s.headset_poses
+      << "\nstations: " << s.stations << "\nscan_points: " << s.scan_points
+      << "\nmarkers: " << s.markers << "\nmarker_dictionary: " << o.dictionary
+      << "\nmarker_size: " << o.marker_size << "\ntriangles: " << s.triangles
+      << "\npath_length: " << s.path_length << "\nscan_face_size: " << o.scan.face_size << "\n";
 }
 
 }  // namespace
@@ -178,6 +178,8 @@ void GenerateOptions::check() const {
   if (image_noise < 0.0) throw Error("image_noise must be >= 0", {.field = "image_noise"});
   if (supersample < 1 || supersample % 2 == 0)
     throw Error("supersample must be odd", {.field = "supersample"});
+  if (walk_variant < 0 || walk_variant > 2)
+    throw Error("walk_variant must be 0, 1 or 2", {.field = "walk_variant"});
   walk.check();
   imu.check();
   headset.check();
@@ -205,6 +207,26 @@ GenerateOptions preset_options(Preset preset) {
   return o;
 }
 
+namespace {
+
+// The path of walk `variant` (GenerateOptions::walk_variant): each waypoint moved sideways along
+// the bisector of its two segments (furniture keeps 0.6 m from the path, walls more).
+std::vector<Eigen::Vector2d> walk_path(const std::vector<Eigen::Vector2d>& path, int variant) {
+  if (variant == 0 || path.size() < 2) return path;
+  const double offset = variant == 1 ? 0.25 : -0.25;  // metres, + = left of the walking direction
+  std::vector<Eigen::Vector2d> out(path.size());
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    const Eigen::Vector2d in = (path[i] - path[i == 0 ? 0 : i - 1]).normalized();
+    const Eigen::Vector2d on = (path[std::min(i + 1, path.size() - 1)] - path[i]).normalized();
+    Eigen::Vector2d dir = i == 0 ? on : (i + 1 == path.size() ? in : (in + on).normalized());
+    if (!dir.allFinite() || dir.norm() < 0.5) dir = on.allFinite() ? on : in;
+    out[i] = path[i] + offset * Eigen::Vector2d(-dir.y(), dir.x());
+  }
+  return out;
+}
+
+}  // namespace
+
 GenerateSummary generate_twin(const GenerateOptions& o, const fs::path& out) {
   o.check();
   Stopwatch total;
@@ -228,7 +250,8 @@ GenerateSummary generate_twin(const GenerateOptions& o, const fs::path& out) {
                s.seconds_scene);
 
   sw.restart();
-  const WalkTrajectory walk(scene.plan.path, o.walk, o.seed);
+  const WalkTrajectory walk(walk_path(scene.plan.path, o.walk_variant), o.walk,
+                            o.seed + 1000003u * static_cast<std::uint64_t>(o.walk_variant));
   const fs::path seq = out / "sequence";
   const SequenceResult sr = write_sequence(renderer, walk, o, seq);
   s.frames = sr.groundtruth.size();

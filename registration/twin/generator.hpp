@@ -42,6 +42,10 @@ struct GenerateOptions {
   int dictionary = 0;  // OpenCV predefined dictionary (0 = DICT_4X4_50)
   double marker_size = 0.1675;
   WalkOptions walk;  // speed and look-around (preset defaults applied when speed <= 0)
+  // Another walk through the same building (scene, markers, scan unchanged): 0 = the preset's
+  // walk; 1 and 2 walk the path 0.25 m to its left / right with other head motion (the walk's
+  // phases from another seed). To localize a second walk in a map of the first.
+  int walk_variant = 0;
   ImuOptions imu;
   HeadsetOptions headset;
   DepthNoiseOptions depth;

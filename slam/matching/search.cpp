@@ -126,12 +126,12 @@ int search_from_last_frame(frame::Frame& current, const frame::Frame& last, cons
 }
 
 int search_local_points(frame::Frame& frame, const std::vector<MapPointId>& candidates,
-                        map::Map& map, double th, std::vector<MapPointId>* visible) {
+                        const map::Map& map, double th, std::vector<MapPointId>* visible) {
   const auto& g = frame.geometry();
   const Eigen::Vector3d centre = frame.camera_centre();
   int n = 0;
   for (MapPointId id : candidates) {
-    map::MapPoint* p = map.point(id);
+    const map::MapPoint* p = map.point(id);
     if (!p) continue;
     const Eigen::Vector3d pc = frame.cam_from_world * p->position;
     if (pc.z() <= 0.0) continue;
@@ -142,7 +142,6 @@ int search_local_points(frame::Frame& frame, const std::vector<MapPointId>& cand
     if (dist < 0.8 * p->min_distance || dist > 1.2 * p->max_distance) continue;
     const double view_cos = ray.dot(p->normal) / dist;
     if (view_cos < 0.5) continue;
-    ++p->visible;
     if (visible) visible->push_back(id);
     const int level = p->predict_level(dist, g);
     const double r =

@@ -24,10 +24,11 @@ int search_from_last_frame(frame::Frame& current, const frame::Frame& last, cons
 
 // Local-map search: projects `candidates` (points not yet matched in `frame`) into it with the
 // frustum test (depth > 0, inside the image, distance in the scale range, viewing angle < 60
-// degrees), marks them visible, and matches with a ratio test between pyramid levels.
-// Returns the number of matches; `visible` receives the ids that passed the frustum test.
+// degrees) and matches with a ratio test between pyramid levels. Returns the number of
+// matches; `visible` receives the ids that passed the frustum test (the caller counts them in
+// MapPoint::visible when it maintains the map; a localizer leaves the map untouched).
 int search_local_points(frame::Frame& frame, const std::vector<MapPointId>& candidates,
-                        map::Map& map, double th, std::vector<MapPointId>* visible = nullptr);
+                        const map::Map& map, double th, std::vector<MapPointId>* visible = nullptr);
 
 // Projects the points of `keyframe` into `frame` (pose set), matching with a wide window;
 // used after relocalization. Skips points already matched in `frame`.

@@ -97,8 +97,12 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
       if (state_ == TrackingState::kOk) {
         if (!shared_.map.keyframe(reference_)) update_local_map();
         follow_reference_of_last_frame();
-        ok = has_velocity_ && track_motion_model();
+        ok = has_velocity_ && track_motion_model(velocity_);
         if (!ok) ok = track_reference_keyframe();
+        // Right after a relocalization there is no velocity yet, and the reference keyframe's
+        // BoW matches can be too few (the relocalizing frame needed projection passes too): the
+        // last frame's matches, projected from where it was, still find this one.
+        if (!ok && !has_velocity_ && last_.has_pose) ok = track_motion_model(SE3());
       } else {
         ok = relocalize();
         result.relocalized = ok;
@@ -213,6 +217,9 @@ void Tracker::record_frame(bool tracked) {
     rec.reference = reference_;
     rec.cam_from_reference = current_.cam_from_world * ref->cam_from_world().inverse();
   }
+  // Localizing for hours must not grow memory: only the last record is kept then (the motion
+  // model follows its reference keyframe).
+  if (!options_.keep_records) records_.clear();
   records_.push_back(rec);
 }
 
@@ -243,9 +250,9 @@ bool Tracker::initialize() {
   return true;
 }
 
-bool Tracker::track_motion_model() {
+bool Tracker::track_motion_model(const SE3& velocity) {
   const map::Map& m = shared_.map;
-  current_.cam_from_world = velocity_ * last_.cam_from_world;
+  current_.cam_from_world = velocity * last_.cam_from_world;
   current_.points.assign(current_.size(), MapPointId::invalid());
   int n = matching::search_from_last_frame(current_, last_, m, options_.motion_search_radius);
   if (n < 20) {
@@ -268,7 +275,10 @@ bool Tracker::track_reference_keyframe() {
   map::Keyframe* ref = m.keyframe(reference_);
   if (!ref || !last_.has_pose) return false;
   compute_bow(current_);
-  if (ref->frame.feature_vector.entries.empty()) compute_bow(ref->frame);
+  if (ref->frame.feature_vector.entries.empty()) {
+    if (!sink_) return false;  // localizing: the map is read only (a loaded map has them)
+    compute_bow(ref->frame);
+  }
   current_.points.assign(current_.size(), MapPointId::invalid());
   if (matching::search_by_bow(*ref, current_, m) < 15) return false;
   current_.cam_from_world = last_.cam_from_world;
@@ -349,23 +359,32 @@ bool Tracker::track_local_map() {
   for (std::size_t i = 0; i < current_.size(); ++i) {
     if (current_.points[i].valid()) matched.insert(current_.points[i]);
   }
-  for (MapPointId p : matched) {
-    if (map::MapPoint* mp = m.point(p)) ++mp->visible;
+  // The visible/found statistics belong to the map's maintenance (point culling): a localizer
+  // (no sink) only reads the map, so several can share it and it stays as it was saved.
+  const bool maintain = sink_ != nullptr;
+  if (maintain) {
+    for (MapPointId p : matched) {
+      if (map::MapPoint* mp = m.point(p)) ++mp->visible;
+    }
   }
   std::vector<MapPointId> candidates;
   for (MapPointId p : local_points_)
     if (!matched.count(p)) candidates.push_back(p);
   const bool recent_reloc =
       last_reloc_frame_.valid() && current_.id.value() < last_reloc_frame_.value() + 2;
+  std::vector<MapPointId> visible;
   matching::search_local_points(current_, candidates, m,
-                                recent_reloc ? 5.0 : options_.local_search_th);
+                                recent_reloc ? 5.0 : options_.local_search_th,
+                                maintain ? &visible : nullptr);
+  for (MapPointId p : visible)
+    ++m.point(p)->visible;
   matching::optimize_frame_pose(current_, m);
   matches_inliers_ = 0;
   for (std::size_t i = 0; i < current_.size(); ++i) {
     if (!current_.points[i].valid() || current_.outlier[i]) continue;
     map::MapPoint* p = m.point(current_.points[i]);
     if (!p) continue;
-    ++p->found;
+    if (maintain) ++p->found;
     ++matches_inliers_;
   }
   current_.has_pose = true;

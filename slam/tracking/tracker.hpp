@@ -48,6 +48,9 @@ struct TrackingOptions {
   bool wait_for_sink = false;
   // Colour images are RGB (ORB-SLAM's Camera.RGB: 1), else BGR. Only the grey conversion uses it.
   bool rgb_input = false;
+  // Keep a FrameRecord per frame (the trajectory); false keeps only the last one, so memory
+  // stays flat over a long localization session.
+  bool keep_records = true;
   reloc::RelocalizationOptions relocalization;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
@@ -95,11 +98,15 @@ class Tracker {
 
   TrackingState state() const { return state_; }
   const std::vector<FrameRecord>& records() const { return records_; }
+  // The last frame tracked (its pose, keypoints and inlier matches in `points`), empty after a
+  // frame that was not. Valid until the next track().
+  const frame::Frame& last_frame() const { return last_; }
   int relocalizations() const { return relocalizations_; }
 
  private:
   bool initialize();
-  bool track_motion_model();
+  // Projects the last frame's matches from velocity * last pose (current_from_last).
+  bool track_motion_model(const SE3& velocity);
   bool track_reference_keyframe();
   bool relocalize();
   bool track_local_map();

@@ -1,0 +1,419 @@
+// coloc localize: localization only in a saved map (slam/localize) over a recorded sequence,
+// as fast as possible or paced as a live camera (--realtime: frames arrive at their timestamps,
+// the localizer drops the ones it cannot take), streaming every localized pose over OSC
+// (/coloc/pose to --publish targets) and answering /coloc/get_pose with the latest one.
+// coloc bench localize: ms per frame by stage and the cold-start relocalization rate.
+
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <optional>
+#include <random>
+#include <sstream>
+#include <thread>
+
+#include "Examples/coloc/cli_common.hpp"
+#include "Examples/coloc/slam_inputs.hpp"
+#include "Examples/coloc/verbs.hpp"
+#include "fusion/osc_node.hpp"
+#include "slam/core/error.hpp"
+#include "slam/core/progress.hpp"
+#include "slam/core/timing.hpp"
+#include "slam/dataset/sequence.hpp"
+#include "slam/eval/trajectory_error.hpp"
+#include "slam/localize/frame_pacer.hpp"
+#include "slam/localize/localizer.hpp"
+#include "slam/mapdb/atomic_file.hpp"
+
+namespace coloc::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using slam::localize::LocalizationResult;
+using slam::localize::LocalizationState;
+using slam::localize::Localizer;
+
+struct LocalizeArgs {
+  fs::path map, sequence, config, vocabulary, trajectory;
+  fs::path gt_from_map;  // TUM file whose first pose maps the map's frame into the ground truth's
+  std::vector<std::string> publish;
+  int listen = -1;  // -1: any free port
+  std::string bind = "127.0.0.1";
+  bool broadcast = false;
+  bool realtime = false;
+  bool json = false;
+  std::size_t start = 0;   // first frame
+  std::size_t frames = 0;  // 0 = to the end
+  int repeat = 1;          // replay the frames this often (memory over long sessions)
+  double linger = 0.0;     // seconds to keep answering /coloc/get_pose after the last frame
+  // bench
+  int runs = 1;
+  int cold_starts = 50;
+  std::uint64_t seed = 1;
+};
+
+// What the localizer runs on: the map, the settings and the sequence read with them.
+struct LocalizeInputs {
+  slam::bow::Vocabulary vocabulary;
+  std::unique_ptr<slam::localize::LocalizationMap> map;
+  settings::Settings settings;
+  std::unique_ptr<dataset::Sequence> sequence;
+};
+
+// --config, else the settings the map was built with (saved in its metadata), else the file
+// shipped for the sequence's format.
+settings::Settings choose_settings(const LocalizeArgs& args,
+                                   const slam::localize::LocalizationMap& map) {
+  if (!args.config.empty()) return settings::load_settings(args.config);
+  if (map.metadata.settings.empty())
+    return settings::load_settings(default_config_for(args.sequence));
+  return slam::localize::settings_saved_in(map, args.map);
+}
+
+LocalizeInputs load_inputs(const LocalizeArgs& args) {
+  LocalizeInputs in{load_vocabulary(args.vocabulary), nullptr, {}, nullptr};
+  in.map = slam::localize::load_localization_map(args.map, in.vocabulary);
+  in.settings = choose_settings(args, *in.map);
+  in.sequence = open_sequence_for(args.sequence, in.settings);
+  if (args.start >= in.sequence->size())
+    throw Error("--start " + std::to_string(args.start) + " is past the sequence's " +
+                    std::to_string(in.sequence->size()) + " frames",
+                {.file = args.sequence.string(), .field = "--start"});
+  return in;
+}
+
+std::optional<dataset::Frame> read_frame(const dataset::Sequence& sequence, std::size_t i) {
+  try {
+    return sequence.frame(i);
+  } catch (const Error& e) {
+    // One unreadable image must not stop a live session: skip it, say which, go on.
+    spdlog::warn("frame {} skipped: {}", i, e.what());
+    return std::nullopt;
+  }
+}
+
+struct SessionTotals {
+  std::uint64_t skipped = 0, dropped = 0, published = 0;
+  double inliers_sum = 0.0, rms_sum = 0.0;
+  Trajectory trajectory;  // localized poses (first replay only)
+};
+
+// Feeds frames [start, end) `repeat` times, paced or not; every result goes to `sink`.
+template <typename Sink>
+void replay(const LocalizeArgs& args, const dataset::Sequence& sequence, std::size_t end,
+            SessionTotals& totals, Sink&& sink) {
+  const std::size_t n = end - args.start;
+  const double first = sequence.timestamp(args.start);
+  // Replays continue the clock (period = span + one frame) so time never runs backwards.
+  const double span = sequence.timestamp(end - 1) - first;
+  const double period = span + (n > 1 ? span / static_cast<double>(n - 1) : 0.033);
+  std::vector<double> times;
+  times.reserve(n * static_cast<std::size_t>(args.repeat));
+  for (int r = 0; r < args.repeat; ++r)
+    for (std::size_t i = 0; i < n; ++i)
+      times.push_back(sequence.timestamp(args.start + i) + r * period);
+  slam::localize::FramePacer pacer(times);
+  Progress progress("localize", times.size(), args.json);
+  const Stopwatch clock;
+  std::size_t done = 0;
+  while (true) {
+    std::optional<slam::localize::PacedFrame> f;
+    if (args.realtime) {
+      f = pacer.next(clock.elapsed_seconds());
+    } else if (done < times.size()) {
+      f = slam::localize::PacedFrame{done, 0.0, 0};
+    }
+    if (!f) break;
+    done = f->index + 1;
+    if (f->wait_s > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(f->wait_s));
+    progress.set(done);
+    const std::size_t index = args.start + f->index % n;
+    const auto frame = read_frame(sequence, index);
+    if (!frame) {
+      ++totals.skipped;
+      continue;
+    }
+    sink(*frame, times[f->index], f->index < n);
+  }
+  progress.finish();
+  if (args.realtime) totals.dropped = pacer.dropped();
+}
+
+std::optional<eval::AteResult> ate(const dataset::Sequence& sequence, const Trajectory& t,
+                                   eval::Alignment alignment) {
+  if (sequence.ground_truth().empty() || t.size() < 3) return std::nullopt;
+  try {
+    return eval::compute_ate(sequence.ground_truth(), t, {.alignment = alignment});
+  } catch (const Error& e) {
+    spdlog::warn("ATE not computed: {}", e.what());
+    return std::nullopt;
+  }
+}
+
+void write_trajectory(const fs::path& path, const Trajectory& trajectory) {
+  slam::mapdb::AtomicFile file(path);
+  write_tum_trajectory(file.temp_path(), trajectory);
+  file.commit();
+}
+
+void run_localize(const LocalizeArgs& args) {
+  // Unwritable outputs are errors before the run, not after it.
+  std::optional<slam::mapdb::AtomicFile> probe;
+  if (!args.trajectory.empty()) probe.emplace(args.trajectory);
+  probe.reset();
+  LocalizeInputs in = load_inputs(args);
+  const dataset::Sequence& sequence = *in.sequence;
+  const std::size_t end =
+      args.frames == 0 ? sequence.size() : std::min(sequence.size(), args.start + args.frames);
+
+  std::optional<fusion::PoseServer> server;
+  fusion::PoseServerOptions osc;
+  osc.endpoint.bind_address = args.bind;
+  osc.endpoint.port = std::max(args.listen, 0);
+  osc.endpoint.broadcast = args.broadcast;
+  osc.targets = args.publish;
+  server.emplace(osc);
+  server->start();
+  spdlog::info("localize: map {} ({} keyframes, {} points, frame '{}'), OSC on {}:{} -> {} targets",
+               args.map.string(), in.map->keyframes(), in.map->points(),
+               in.map->metadata.frame_name, args.bind, server->port(), args.publish.size());
+
+  Localizer localizer(*in.map, in.vocabulary, in.settings,
+                      slam::localize::options_from_settings(in.settings));
+  SessionTotals totals;
+  std::int32_t sequence_number = 0;
+  SE3 last_pose;
+  replay(
+      args, sequence, end, totals,
+      [&](const dataset::Frame& frame, double time, bool first_replay) {
+        const LocalizationResult r = localizer.localize(
+            dataset::to_camera_order(frame.color, in.settings.rgb_order), frame.depth, time);
+        if (r.state == LocalizationState::kLost) {
+          server->set_latest(fusion::PoseMessage::from_pose(time, sequence_number, 0, last_pose));
+          return;
+        }
+        last_pose = r.world_from_cam;
+        totals.inliers_sum += r.inliers;
+        totals.rms_sum += r.reprojection_rms_px;
+        server->publish(fusion::PoseMessage::from_pose(
+            time, sequence_number++, static_cast<std::int32_t>(r.state), r.world_from_cam));
+        totals.published += args.publish.size();
+        if (first_replay) totals.trajectory.push_back({time, r.world_from_cam});
+      });
+  if (args.linger > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(args.linger));
+  server->stop();
+  if (!args.trajectory.empty()) write_trajectory(args.trajectory, totals.trajectory);
+
+  const auto& s = localizer.stats();
+  const double localized = std::max<double>(1.0, static_cast<double>(s.localized));
+  const auto aligned = ate(sequence, totals.trajectory, eval::Alignment::kSE3);
+  // Without alignment: in the map's frame, or moved by a known (not fitted) transform into the
+  // ground truth's frame (a twin map: the mapped walk's scan_from_sequence_start.txt).
+  Trajectory in_gt_frame = totals.trajectory;
+  if (!args.gt_from_map.empty()) {
+    const Trajectory t = read_tum_trajectory(args.gt_from_map);
+    if (t.empty()) throw Error("no pose in the file", {.file = args.gt_from_map.string()});
+    for (auto& p : in_gt_frame)
+      p.world_from_cam = t.front().world_from_cam * p.world_from_cam;
+  }
+  const auto unaligned = ate(sequence, in_gt_frame, eval::Alignment::kNone);
+  const fusion::OscStats osc_stats = server->stats();
+  const std::uint64_t bad_packets = osc_stats.oversized + osc_stats.malformed +
+                                    osc_stats.unknown_address + osc_stats.wrong_types +
+                                    osc_stats.invalid_values;
+  if (args.json) {
+    print_json({{"frames", s.frames},
+                {"localized", s.localized},
+                {"lost", s.lost},
+                {"relocalizations", s.relocalizations},
+                {"dropped", totals.dropped},
+                {"skipped", totals.skipped},
+                {"ms_per_frame_median", s.total_ms.quantile(0.5)},
+                {"ms_per_frame_p99", s.total_ms.quantile(0.99)},
+                {"ms_per_frame_max", s.total_ms.max()},
+                {"first_localized_frame", s.first_localized_frame},
+                {"ms_to_first_pose", s.ms_to_first_pose},
+                {"inliers_mean", totals.inliers_sum / localized},
+                {"reprojection_rms_px_mean", totals.rms_sum / localized},
+                {"frame", in.map->metadata.frame_name},
+                {"map_keyframes", in.map->keyframes()},
+                {"map_points", in.map->points()},
+                {"osc_port", server->port()},
+                {"published", totals.published},
+                {"requests_answered", server->requests_answered()},
+                {"osc_bad_packets", bad_packets},
+                {"ate_rmse_m", aligned ? Json(aligned->translation.rmse) : Json()},
+                {"ate_unaligned_rmse_m", unaligned ? Json(unaligned->translation.rmse) : Json()}});
+    return;
+  }
+  std::cout << "frames " << s.frames << ", localized " << s.localized << ", lost " << s.lost
+            << ", relocalizations " << s.relocalizations << ", dropped " << totals.dropped
+            << (totals.skipped ? ", skipped (unreadable) " + std::to_string(totals.skipped) : "")
+            << "\nms/frame: median " << s.total_ms.quantile(0.5) << ", p99 "
+            << s.total_ms.quantile(0.99) << ", max " << s.total_ms.max() << "\nfirst pose at frame "
+            << s.first_localized_frame << " after " << s.ms_to_first_pose << " ms; inliers mean "
+            << totals.inliers_sum / localized << ", reprojection RMS mean "
+            << totals.rms_sum / localized << " px"
+            << "\nposes world_from_cam in the map's frame '" << in.map->metadata.frame_name
+            << "'; OSC port " << server->port() << ", " << totals.published << " sent, "
+            << server->requests_answered() << " requests answered, " << bad_packets
+            << " bad packets dropped\n";
+  if (aligned && unaligned)
+    std::cout << "ATE RMSE vs ground truth: " << unaligned->translation.rmse
+              << " m without alignment"
+              << (args.gt_from_map.empty() ? " (map frame)" : " (map frame moved by --gt-from-map)")
+              << ", " << aligned->translation.rmse << " m after SE3 alignment\n";
+}
+
+// Resident set size of this process (bytes), from /proc/self/statm; 0 when unreadable.
+std::uint64_t resident_bytes() {
+  std::ifstream statm("/proc/self/statm");
+  std::uint64_t pages = 0, resident = 0;
+  if (!(statm >> pages >> resident)) return 0;
+  return resident * static_cast<std::uint64_t>(sysconf(_SC_PAGESIZE));
+}
+
+void run_bench(const LocalizeArgs& args) {
+  LocalizeInputs in{load_vocabulary(args.vocabulary), nullptr, {}, nullptr};
+  const std::uint64_t rss_before = resident_bytes();
+  in.map = slam::localize::load_localization_map(args.map, in.vocabulary);
+  const std::uint64_t rss_after = resident_bytes();
+  in.settings = choose_settings(args, *in.map);
+  in.sequence = open_sequence_for(args.sequence, in.settings);
+  const dataset::Sequence& sequence = *in.sequence;
+  // Frames are read once, up front: the timing is the localizer's, not the PNG decoder's.
+  std::vector<dataset::Frame> frames;
+  for (std::size_t i = 0; i < sequence.size(); ++i) {
+    if (auto f = read_frame(sequence, i)) {
+      f->color = dataset::to_camera_order(f->color, in.settings.rgb_order);
+      frames.push_back(std::move(*f));
+    }
+  }
+  const auto options = slam::localize::options_from_settings(in.settings);
+  std::printf("map %s: %zu keyframes, %zu points, resident %.1f MB (%.1f kB per keyframe)\n",
+              args.map.string().c_str(), in.map->keyframes(), in.map->points(),
+              static_cast<double>(rss_after - rss_before) / 1e6,
+              static_cast<double>(rss_after - rss_before) / 1e3 /
+                  static_cast<double>(std::max<std::size_t>(1, in.map->keyframes())));
+  std::printf("sequence %s: %zu frames %dx%d\n", args.sequence.string().c_str(), frames.size(),
+              frames.empty() ? 0 : frames.front().color.cols,
+              frames.empty() ? 0 : frames.front().color.rows);
+  std::printf("%4s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %6s %5s %5s\n", "run", "extr_med",
+              "extr_p99", "pose_med", "pose_p99", "lmap_med", "lmap_p99", "total_med", "total_p99",
+              "cpu_med", "cpu_p99", "loc", "lost", "reloc");
+  for (int run = 0; run < args.runs; ++run) {
+    Localizer localizer(*in.map, in.vocabulary, in.settings, options);
+    std::vector<double> extract, pose, lmap, total, cpu;
+    for (const auto& f : frames) {
+      const ThreadCpuStopwatch cpu_watch;
+      const LocalizationResult r = localizer.localize(f.color, f.depth, f.timestamp);
+      cpu.push_back(cpu_watch.elapsed_ms());
+      extract.push_back(r.extract_ms);
+      pose.push_back(r.pose_ms);
+      lmap.push_back(r.local_map_ms);
+      total.push_back(r.total_ms);
+    }
+    const auto& s = localizer.stats();
+    std::printf(
+        "%4d %9.2f %9.2f %9.2f %9.2f %9.2f %9.2f %9.2f %9.2f %9.2f %9.2f %6llu %5llu %5llu\n",
+        run + 1, quantile(extract, 0.5), quantile(extract, 0.99), quantile(pose, 0.5),
+        quantile(pose, 0.99), quantile(lmap, 0.5), quantile(lmap, 0.99), quantile(total, 0.5),
+        quantile(total, 0.99), quantile(cpu, 0.5), quantile(cpu, 0.99),
+        static_cast<unsigned long long>(s.localized), static_cast<unsigned long long>(s.lost),
+        static_cast<unsigned long long>(s.relocalizations));
+  }
+  std::printf(
+      "ms per frame (wall): extraction (extr), initial pose: motion model or relocalization "
+      "(pose),\nlocal-map tracking (lmap), the whole localize() call (total); cpu: the calling "
+      "thread's CPU time\nfor the whole call (what the frame costs on a loaded machine)\n");
+  if (args.cold_starts <= 0 || frames.empty()) return;
+  // Cold starts: a fresh localizer whose first frame is a random one of the sequence.
+  std::mt19937_64 rng(args.seed);
+  std::uniform_int_distribution<std::size_t> pick(0, frames.size() - 1);
+  Localizer localizer(*in.map, in.vocabulary, in.settings, options);
+  std::vector<double> ms_ok, ms_all;
+  int ok = 0;
+  for (int k = 0; k < args.cold_starts; ++k) {
+    const auto& f = frames[pick(rng)];
+    localizer.reset();
+    const LocalizationResult r = localizer.localize(f.color, f.depth, f.timestamp);
+    ms_all.push_back(r.total_ms);
+    if (r.state != LocalizationState::kLost) {
+      ++ok;
+      ms_ok.push_back(r.total_ms);
+    }
+  }
+  std::printf(
+      "cold start (first frame anywhere, seed %llu): %d of %d localized (%.0f %%), ms to first "
+      "pose median %.2f, p99 %.2f (all attempts: median %.2f)\n",
+      static_cast<unsigned long long>(args.seed), ok, args.cold_starts,
+      100.0 * ok / args.cold_starts, ms_ok.empty() ? 0.0 : quantile(ms_ok, 0.5),
+      ms_ok.empty() ? 0.0 : quantile(ms_ok, 0.99), quantile(ms_all, 0.5));
+}
+
+}  // namespace
+
+void add_localize_verb(CLI::App& app, CLI::App& bench) {
+  auto args = std::make_shared<LocalizeArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "localize",
+      "Localization only in a saved map; poses (world_from_cam, map frame) over OSC and TUM");
+  cmd->add_option("--map", args->map, "Map file (coloc map --save)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--sequence", args->sequence, "Sequence folder (TUM, 7-Scenes, twin)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  cmd->add_option("--config", args->config,
+                  "Camera settings YAML (default: the settings saved in the map)");
+  cmd->add_option("--vocabulary", args->vocabulary,
+                  "BoW vocabulary (default: Vocabulary/coloc_orb_k10_L5.cvoc)");
+  cmd->add_option("--trajectory", args->trajectory,
+                  "Output: localized poses world_from_cam (TUM format)");
+  cmd->add_option("--gt-from-map", args->gt_from_map,
+                  "TUM file whose first pose maps the map's frame into the ground truth's (for "
+                  "the ATE without alignment; a twin: groundtruth/scan_from_sequence_start.txt of "
+                  "the mapped walk)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--publish", args->publish,
+                  "Send every localized pose as /coloc/pose to osc.udp://HOST:PORT (repeatable)");
+  cmd->add_option("--listen", args->listen,
+                  "UDP port answering /coloc/get_pose (default: any free port)")
+      ->check(CLI::Range(0, 65535));
+  cmd->add_option("--bind", args->bind, "Address to bind (loopback unless told otherwise)")
+      ->capture_default_str();
+  cmd->add_flag("--broadcast", args->broadcast,
+                "Allow --publish to a subnet broadcast address (SO_BROADCAST)");
+  cmd->add_flag("--realtime", args->realtime,
+                "Frames arrive at their timestamps; frames the localizer cannot take are dropped");
+  cmd->add_option("--start", args->start, "First frame (0-based)");
+  cmd->add_option("--frames", args->frames, "Frames to localize (0: to the end)");
+  cmd->add_option("--repeat", args->repeat, "Replay the frames this many times")
+      ->check(CLI::Range(1, 100000));
+  cmd->add_option("--linger", args->linger,
+                  "Seconds to keep answering /coloc/get_pose after the last frame")
+      ->check(CLI::Range(0.0, 3600.0));
+  cmd->add_flag("--json", args->json, "Machine-readable summary");
+  cmd->callback([args] { run_localize(*args); });
+
+  CLI::App* b = bench.add_subcommand(
+      "localize", "Localization ms/frame by stage, cold-start relocalization, map memory");
+  b->add_option("--map", args->map, "Map file")->required()->check(CLI::ExistingFile);
+  b->add_option("--sequence", args->sequence, "Sequence folder")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  b->add_option("--config", args->config, "Camera settings YAML (default: the map's)");
+  b->add_option("--vocabulary", args->vocabulary, "BoW vocabulary");
+  b->add_option("--runs", args->runs, "Passes over the sequence")->check(CLI::Range(1, 100));
+  b->add_option("--cold-starts", args->cold_starts, "Random first frames to relocalize")
+      ->check(CLI::Range(0, 100000));
+  b->add_option("--seed", args->seed, "Seed of the random frames")->capture_default_str();
+  b->callback([args] { run_bench(*args); });
+}
+
+}  // namespace coloc::cli

@@ -1,0 +1,35 @@
+/* The localizer's C ABI from C99: the header compiles as C, the library links, and failures are
+ * status codes with messages naming the file (the real localization through this ABI is in
+ * test_localizer.cpp, on the test map). */
+#include <stdio.h>
+#include <string.h>
+
+#include "slam/localize/c_api.h"
+
+int main(void) {
+  char error[512];
+  coloc_localizer* h;
+  if (coloc_localize_abi_version() != COLOC_LOCALIZE_ABI_VERSION) {
+    printf("ABI version mismatch\n");
+    return 1;
+  }
+  h = coloc_localizer_open("/nonexistent/site.db", "/nonexistent/vocabulary.cvoc", NULL, error,
+                           sizeof error);
+  if (h != NULL || strstr(error, "/nonexistent/") == NULL) {
+    printf("open of a missing file: handle %p, message '%s'\n", (void*)h, error);
+    return 1;
+  }
+  if (coloc_localizer_open(NULL, NULL, NULL, error, sizeof error) != NULL || error[0] == '\0') {
+    printf("open with NULL paths did not fail with a message\n");
+    return 1;
+  }
+  if (coloc_localizer_localize(NULL, NULL, 0, 0, 0, 0, NULL, 0, 0.0, NULL) !=
+          COLOC_LOCALIZE_ERROR_INVALID_ARGUMENT ||
+      coloc_localizer_reset(NULL) != COLOC_LOCALIZE_ERROR_INVALID_ARGUMENT) {
+    printf("a NULL handle was not refused\n");
+    return 1;
+  }
+  coloc_localizer_close(NULL);
+  printf("ok: %s\n", error);
+  return 0;
+}

@@ -1,0 +1,259 @@
+// Localization in a saved map, on a real map: a twin room walk mapped by the SLAM system and
+// saved with the SQLite map database (localize_fixture.hpp), loaded and localized in.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "slam/core/error.hpp"
+#include "slam/localize/c_api.h"
+#include "slam/localize/localizer.hpp"
+#include "tests/slam/localize/localize_fixture.hpp"
+#include "tests/slam/mapdb/map_compare.hpp"
+
+namespace coloc::slam::localize {
+namespace {
+
+using test::fixture;
+
+struct Inputs {
+  std::unique_ptr<LocalizationMap> map;
+  settings::Settings settings;
+  std::unique_ptr<dataset::Sequence> sequence;
+};
+
+Inputs open_inputs() {
+  Inputs in;
+  in.map = load_localization_map(fixture().map, test_support::vocabulary());
+  in.settings = settings::load_settings(fixture().sequence / "camera.yaml");
+  dataset::SequenceOptions so;
+  so.depth_scale = in.settings.depth->depth_map_factor;
+  in.sequence = dataset::open_sequence(fixture().sequence, so);
+  return in;
+}
+
+Localizer make_localizer(Inputs& in) {
+  return Localizer(*in.map, test_support::vocabulary(), in.settings,
+                   options_from_settings(in.settings));
+}
+
+LocalizationResult localize_frame(Localizer& l, const dataset::Sequence& s, std::size_t i) {
+  const dataset::Frame f = s.frame(i);
+  return l.localize(f.color, f.depth, f.timestamp);
+}
+
+// The pose SLAM gave the frame at `t` while mapping (exact timestamp match).
+std::optional<SE3> mapped_pose(const Trajectory& t, double time) {
+  for (const auto& p : t)
+    if (std::abs(p.timestamp - time) < 1e-4) return p.world_from_cam;
+  return std::nullopt;
+}
+
+double angle_deg(const SE3& a, const SE3& b) {
+  return (a.so3().inverse() * b.so3()).log().norm() * 180.0 / M_PI;
+}
+
+std::uint64_t file_hash(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::vector<char> buffer(1 << 16);
+  std::uint64_t h = 1469598103934665603ULL;  // FNV-1a
+  while (in.read(buffer.data(), static_cast<std::streamsize>(buffer.size())) || in.gcount() > 0) {
+    for (std::streamsize i = 0; i < in.gcount(); ++i)
+      h = (h ^ static_cast<unsigned char>(buffer[static_cast<std::size_t>(i)])) * 1099511628211ULL;
+  }
+  return h;
+}
+
+// Map -> save -> load -> localize the same walk: every frame localizes, each keyframe's frame
+// lands on the keyframe's saved pose, and the whole walk on the trajectory SLAM mapped (a
+// reported peer bug: localization after load drifting away from the mapping run).
+TEST(Localizer, SameSequenceAgreesWithTheMappedTrajectory) {
+  Inputs in = open_inputs();
+  Localizer l = make_localizer(in);
+  const auto& f = fixture();
+  double kf_max = 0.0, kf_rot_max = 0.0, traj_sq = 0.0, traj_max = 0.0;
+  int kf_checked = 0, traj_checked = 0;
+  for (std::size_t i = 0; i < in.sequence->size(); ++i) {
+    const LocalizationResult r = localize_frame(l, *in.sequence, i);
+    ASSERT_NE(r.state, LocalizationState::kLost) << "frame " << i;
+    EXPECT_EQ(r.state, i == 0 ? LocalizationState::kRelocalized : LocalizationState::kTracking);
+    EXPECT_GT(r.inliers, 100) << "frame " << i;
+    EXPECT_GT(r.reprojection_rms_px, 0.0);
+    EXPECT_LT(r.reprojection_rms_px, 3.0) << "frame " << i;
+    if (const auto kf = mapped_pose(f.keyframes, r.timestamp)) {
+      kf_max = std::max(kf_max, (kf->translation() - r.world_from_cam.translation()).norm());
+      kf_rot_max = std::max(kf_rot_max, angle_deg(*kf, r.world_from_cam));
+      ++kf_checked;
+    }
+    if (const auto m = mapped_pose(f.mapped, r.timestamp)) {
+      const double e = (m->translation() - r.world_from_cam.translation()).norm();
+      traj_sq += e * e;
+      traj_max = std::max(traj_max, e);
+      ++traj_checked;
+    }
+  }
+  EXPECT_GE(kf_checked, 5);
+  EXPECT_LT(kf_max, 0.005) << "metres, keyframe frames vs their saved poses";
+  EXPECT_LT(kf_rot_max, 0.3) << "degrees";
+  ASSERT_GE(traj_checked + 2, static_cast<int>(in.sequence->size()));  // as SLAM tracked them
+  EXPECT_LT(std::sqrt(traj_sq / traj_checked), 0.006) << "metres RMS vs the mapped trajectory";
+  EXPECT_LT(traj_max, 0.02);
+  const LocalizerStats& s = l.stats();
+  EXPECT_EQ(s.localized, in.sequence->size());
+  EXPECT_EQ(s.relocalizations, 1u);
+  EXPECT_EQ(s.first_localized_frame, 0);
+  std::cout << "keyframe frames: max " << 1e3 * kf_max << " mm, " << kf_rot_max
+            << " deg; mapped trajectory RMS " << 1e3 * std::sqrt(traj_sq / traj_checked)
+            << " mm, max " << 1e3 * traj_max << " mm; ms/frame median " << s.total_ms.quantile(0.5)
+            << "\n";
+}
+
+// The first frame is anywhere in the map: it relocalizes at once and tracking goes on from it.
+TEST(Localizer, ColdStartMidSequence) {
+  Inputs in = open_inputs();
+  for (std::size_t start : {60u, 130u}) {
+    Localizer l = make_localizer(in);
+    for (std::size_t i = start; i < start + 10; ++i) {
+      const LocalizationResult r = localize_frame(l, *in.sequence, i);
+      ASSERT_EQ(r.state,
+                i == start ? LocalizationState::kRelocalized : LocalizationState::kTracking)
+          << "start " << start << " frame " << i;
+      const auto m = mapped_pose(fixture().mapped, r.timestamp);
+      ASSERT_TRUE(m);
+      EXPECT_LT((m->translation() - r.world_from_cam.translation()).norm(), 0.02);
+      EXPECT_LT(angle_deg(*m, r.world_from_cam), 1.0);
+    }
+    EXPECT_EQ(l.stats().first_localized_frame, 0);
+    EXPECT_EQ(l.stats().relocalizations, 1u);
+  }
+}
+
+// Covered camera (black frames): lost, and relocalized when the view comes back somewhere else
+// on the walk; the pose after the jump is right again.
+TEST(Localizer, LostThenRelocalizedAfterAJump) {
+  Inputs in = open_inputs();
+  Localizer l = make_localizer(in);
+  for (std::size_t i = 0; i < 20; ++i)
+    ASSERT_NE(localize_frame(l, *in.sequence, i).state, LocalizationState::kLost);
+  const dataset::Frame f = in.sequence->frame(20);
+  const cv::Mat black = cv::Mat::zeros(f.color.size(), f.color.type());
+  const cv::Mat no_depth = cv::Mat::zeros(f.depth.size(), f.depth.type());
+  for (int k = 0; k < 3; ++k) {
+    const LocalizationResult r = l.localize(black, no_depth, f.timestamp + 0.01 * k);
+    EXPECT_EQ(r.state, LocalizationState::kLost);
+    EXPECT_EQ(r.inliers, 0);
+  }
+  const std::size_t jump = 150;
+  const LocalizationResult r = localize_frame(l, *in.sequence, jump);
+  ASSERT_EQ(r.state, LocalizationState::kRelocalized);
+  const auto m = mapped_pose(fixture().mapped, r.timestamp);
+  ASSERT_TRUE(m);
+  EXPECT_LT((m->translation() - r.world_from_cam.translation()).norm(), 0.02);
+  EXPECT_EQ(localize_frame(l, *in.sequence, jump + 1).state, LocalizationState::kTracking);
+  EXPECT_EQ(l.stats().lost, 3u);
+  EXPECT_EQ(l.stats().relocalizations, 2u);
+}
+
+// The map is read only: after localizing (tracking, loss, relocalization, reset) it equals a
+// second load of the same file field by field (points' visible/found counts included), and the
+// file's bytes are unchanged.
+TEST(Localizer, NeverChangesTheMap) {
+  const std::uint64_t hash_before = file_hash(fixture().map);
+  Inputs in = open_inputs();
+  const auto reference = load_localization_map(fixture().map, test_support::vocabulary());
+  const std::size_t keyframes = in.map->keyframes(), points = in.map->points();
+  Localizer l = make_localizer(in);
+  for (std::size_t i = 0; i < in.sequence->size(); i += 3)
+    localize_frame(l, *in.sequence, i);
+  l.reset();
+  localize_frame(l, *in.sequence, 100);
+  EXPECT_GE(l.stats().localized, 50u);
+  EXPECT_EQ(in.map->keyframes(), keyframes);
+  EXPECT_EQ(in.map->points(), points);
+  EXPECT_EQ(mapdb::test::map_difference(in.map->shared.map, reference->shared.map), "");
+  EXPECT_EQ(in.map->shared.database.size(), reference->shared.database.size());
+  EXPECT_EQ(file_hash(fixture().map), hash_before);
+}
+
+// Two localizers on one map in two threads (the map shared read-only): both localize.
+TEST(Localizer, TwoLocalizersShareOneMap) {
+  Inputs in = open_inputs();
+  std::atomic<int> localized{0};
+  auto run = [&](std::size_t first) {
+    Localizer l = make_localizer(in);
+    for (std::size_t i = first; i < first + 15; ++i)
+      if (localize_frame(l, *in.sequence, i).state != LocalizationState::kLost) ++localized;
+  };
+  std::thread a(run, 10), b(run, 100);
+  a.join();
+  b.join();
+  EXPECT_EQ(localized.load(), 30);
+}
+
+TEST(Localizer, RejectsFramesOfAnotherSize) {
+  Inputs in = open_inputs();
+  Localizer l = make_localizer(in);
+  const cv::Mat small(240, 320, CV_8UC3, cv::Scalar(0));
+  EXPECT_THROW(l.localize(small, cv::Mat(), 0.0), Error);
+  EXPECT_THROW(l.localize(cv::Mat(), cv::Mat(), 0.0), Error);
+}
+
+TEST(Localizer, LoadingAMissingMapNamesTheFile) {
+  try {
+    load_localization_map("/nonexistent/site.db", test_support::vocabulary());
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/site.db"), std::string::npos) << e.what();
+  }
+}
+
+// The C ABI (coloc_localize_c) on the same map, the settings taken from the map itself: a cold
+// start mid-walk, then tracking, poses on the mapped trajectory.
+TEST(LocalizeCApi, LocalizesWithTheSettingsSavedInTheMap) {
+  char error[512];
+  const std::string vocabulary =
+      (test_support::source_dir() / "Vocabulary/coloc_orb_k10_L5.cvoc").string();
+  coloc_localizer* h =
+      coloc_localizer_open(fixture().map.c_str(), vocabulary.c_str(), nullptr, error, sizeof error);
+  ASSERT_NE(h, nullptr) << error;
+  std::uint64_t keyframes = 0, points = 0;
+  char frame[32];
+  ASSERT_EQ(coloc_localizer_map_info(h, &keyframes, &points, frame, sizeof frame),
+            COLOC_LOCALIZE_OK);
+  EXPECT_GT(keyframes, 5u);
+  EXPECT_GT(points, 1000u);
+  EXPECT_STREQ(frame, "slam");
+  const Inputs in = open_inputs();
+  for (std::size_t i = 40; i < 50; ++i) {
+    const dataset::Frame f = in.sequence->frame(i);
+    coloc_localize_pose pose{};
+    ASSERT_EQ(coloc_localizer_localize(
+                  h, f.color.data, f.color.cols, f.color.rows, f.color.channels(), f.color.step,
+                  reinterpret_cast<const float*>(f.depth.data), f.depth.step, f.timestamp, &pose),
+              COLOC_LOCALIZE_OK)
+        << coloc_localizer_last_error(h);
+    EXPECT_EQ(pose.state, i == 40 ? COLOC_LOCALIZE_RELOCALIZED : COLOC_LOCALIZE_TRACKING);
+    const auto m = mapped_pose(fixture().mapped, f.timestamp);
+    ASSERT_TRUE(m);
+    EXPECT_LT(
+        (m->translation() - Eigen::Vector3d(pose.position[0], pose.position[1], pose.position[2]))
+            .norm(),
+        0.02);
+    EXPECT_GT(pose.inliers, 100);
+  }
+  // Wrong size: an error with a message, the handle still usable.
+  const std::vector<std::uint8_t> small(100 * 100, 0);
+  coloc_localize_pose pose{};
+  EXPECT_EQ(coloc_localizer_localize(h, small.data(), 100, 100, 1, 100, nullptr, 0, 1.0, &pose),
+            COLOC_LOCALIZE_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(coloc_localizer_last_error(h)).find("Camera.width"), std::string::npos);
+  EXPECT_EQ(coloc_localizer_reset(h), COLOC_LOCALIZE_OK);
+  coloc_localizer_close(h);
+}
+
+}  // namespace
+}  // namespace coloc::slam::localize
