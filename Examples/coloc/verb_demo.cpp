@@ -3,7 +3,12 @@
 // foundation steps run in-process; the pipeline steps run this program's own verbs, printing
 // each command first so a user can repeat any step by hand. A failing step fails the demo.
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <signal.h>
 #include <spawn.h>
+#include <sys/socket.h>
+#include <unistd.h>
 #include <spdlog/spdlog.h>
 #include <sys/wait.h>
 
@@ -52,6 +57,50 @@ void run_verb(const std::vector<std::string>& args) {
   if (waitpid(pid, &status, 0) < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
     throw CliFailure("step failed: " + shown);
   }
+}
+
+// Starts `coloc ARGS...` without waiting (a peer process, e.g. the fusion node); stop_verb()
+// ends it with SIGINT and waits.
+pid_t start_verb(const std::vector<std::string>& args) {
+  std::string shown = "coloc";
+  for (const auto& a : args)
+    shown += " " + a;
+  std::printf("  $ %s &\n", shown.c_str());
+  std::fflush(stdout);
+  std::vector<std::string> argv_store = {"coloc"};
+  argv_store.insert(argv_store.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : argv_store)
+    argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  if (posix_spawn(&pid, "/proc/self/exe", nullptr, nullptr, argv.data(), environ) != 0)
+    throw CliFailure("cannot start: " + shown);
+  return pid;
+}
+
+void stop_verb(pid_t pid, const std::string& what) {
+  kill(pid, SIGINT);
+  int status = 0;
+  if (waitpid(pid, &status, 0) < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    throw CliFailure("step failed: " + what);
+}
+
+// A UDP port free on loopback now (the fusion node binds it right after).
+int free_udp_port() {
+  const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+  if (fd < 0) throw CliFailure("no UDP socket for the OSC demo");
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t length = sizeof(address);
+  int port = 0;
+  if (bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) == 0 &&
+      getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length) == 0)
+    port = ntohs(address.sin_port);
+  close(fd);
+  if (port == 0) throw CliFailure("no free UDP port for the OSC demo");
+  return port;
 }
 
 void step_header(int n, const std::string& what) {
@@ -175,6 +224,33 @@ void demo_twin(const DemoArgs& a, const std::filesystem::path& out, int& step) {
   step_header(++step, "The twin's map as one SQLite file: every check of a load, then its summary");
   run_verb({"mapdb", "verify", map_db, "--vocabulary", vocabulary});
   run_verb({"mapdb", "info", map_db});
+
+  step_header(++step, "The map registered to the laser scan by the scanned markers");
+  const std::string scan_db = (out / "twin_map_scan.db").string();
+  run_verb({"register", "--map", map_db, "--markers", (out / "markers.yaml").string(), "--out",
+            scan_db, "--level", "markers", "--report", (out / "registration").string()});
+
+  step_header(++step,
+              "A second walk through the building, localized in the registered map and streamed "
+              "over OSC to the fusion node");
+  const std::filesystem::path walk = out / ("twin_" + a.preset + "_walk1");
+  if (std::filesystem::exists(walk / "sequence" / "rgb.txt")) {
+    std::printf("  %s exists: reused (delete it to regenerate)\n", walk.c_str());
+  } else {
+    run_verb({"twin", "generate", "--preset", a.preset, "--seed", std::to_string(a.seed),
+              "--walk", "1", "--no-scan", "--out", walk.string()});
+  }
+  const std::string port = std::to_string(free_udp_port());
+  const pid_t fuse = start_verb({"fuse", "--listen", port});
+  try {
+    run_verb({"localize", "--map", scan_db, "--sequence", (walk / "sequence").string(),
+              "--trajectory", (out / "twin_walk1_localized.txt").string(), "--publish",
+              "osc.udp://127.0.0.1:" + port});
+  } catch (...) {
+    stop_verb(fuse, "coloc fuse");
+    throw;
+  }
+  stop_verb(fuse, "coloc fuse --listen " + port);
 }
 
 // SLAM on a real recording (TUM fr1/xyz) with its motion-capture ground truth.
