@@ -7,10 +7,10 @@
 #include <netinet/in.h>
 #include <signal.h>
 #include <spawn.h>
-#include <sys/socket.h>
-#include <unistd.h>
 #include <spdlog/spdlog.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -212,8 +212,7 @@ void demo_twin(const DemoArgs& a, const std::filesystem::path& out, int& step) {
   const std::string map_db = (out / "twin_map.db").string();
   step_header(++step, "RGB-D SLAM on the first half of the twin's walk, saved as a map file");
   run_verb({"map", "--sequence", sequence, "--vocabulary", vocabulary, "--frames", ":" + half,
-            "--trajectory", (out / "twin_trajectory_first_half.txt").string(), "--save",
-            first_db});
+            "--trajectory", (out / "twin_trajectory_first_half.txt").string(), "--save", first_db});
   step_header(++step, "The saved map reloaded and continued with the second half");
   run_verb({"map", "--sequence", sequence, "--vocabulary", vocabulary, "--frames", half + ":",
             "--load", first_db, "--trajectory", (out / "twin_trajectory.txt").string(),
@@ -237,14 +236,15 @@ void demo_twin(const DemoArgs& a, const std::filesystem::path& out, int& step) {
   if (std::filesystem::exists(walk / "sequence" / "rgb.txt")) {
     std::printf("  %s exists: reused (delete it to regenerate)\n", walk.c_str());
   } else {
-    run_verb({"twin", "generate", "--preset", a.preset, "--seed", std::to_string(a.seed),
-              "--walk", "1", "--no-scan", "--out", walk.string()});
+    run_verb({"twin", "generate", "--preset", a.preset, "--seed", std::to_string(a.seed), "--walk",
+              "1", "--no-scan", "--out", walk.string()});
   }
   const std::string port = std::to_string(free_udp_port());
   const pid_t fuse = start_verb({"fuse", "--listen", port});
   try {
     run_verb({"localize", "--map", scan_db, "--sequence", (walk / "sequence").string(),
-              "--trajectory", (out / "twin_walk1_localized.txt").string(), "--publish",
+              "--trajectory", (out / "twin_walk1_localized.txt").string(), "--cam-from-head",
+              (walk / "headset" / "calibration.yaml").string(), "--publish",
               "osc.udp://127.0.0.1:" + port});
   } catch (...) {
     stop_verb(fuse, "coloc fuse");

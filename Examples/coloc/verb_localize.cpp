@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <random>
 #include <sstream>
@@ -41,6 +42,7 @@ using slam::localize::Localizer;
 struct LocalizeArgs {
   fs::path map, sequence, config, vocabulary, trajectory;
   fs::path gt_from_map;  // TUM file whose first pose maps the map's frame into the ground truth's
+  fs::path head;         // YAML with cam_from_head: publish world_from_head instead of _cam
   std::vector<std::string> publish;
   int listen = -1;  // -1: any free port
   std::string bind = "127.0.0.1";
@@ -56,6 +58,34 @@ struct LocalizeArgs {
   int cold_starts = 50;
   std::uint64_t seed = 1;
 };
+
+// cam_from_head (4x4, OpenCV YAML key `cam_from_head`, or `cam_from_headset` as the twin's
+// headset/calibration.yaml has it): the camera's mounting on the headset.
+SE3 read_cam_from_head(const fs::path& path) {
+  cv::FileStorage file;
+  try {
+    file.open(path.string(), cv::FileStorage::READ);
+  } catch (const cv::Exception& e) {
+    throw Error("not a readable YAML file (" + e.err + ")", {.file = path.string()});
+  }
+  if (!file.isOpened()) throw Error("cannot open the calibration file", {.file = path.string()});
+  const char* key = file["cam_from_head"].empty() ? "cam_from_headset" : "cam_from_head";
+  cv::Mat m;
+  file[key] >> m;
+  if (m.rows != 4 || m.cols != 4)
+    throw Error("expected a 4x4 matrix under cam_from_head (or cam_from_headset)",
+                {.file = path.string(), .field = key});
+  m.convertTo(m, CV_64F);
+  Eigen::Matrix4d t;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c)
+      t(r, c) = m.at<double>(r, c);
+  const Eigen::Matrix3d rotation = t.topLeftCorner<3, 3>();
+  if ((rotation.transpose() * rotation - Eigen::Matrix3d::Identity()).norm() > 1e-4 ||
+      rotation.determinant() < 0.0)
+    throw Error("the rotation part is not a rotation", {.file = path.string(), .field = key});
+  return SE3(SO3(Eigen::Quaterniond(rotation).normalized()), t.topRightCorner<3, 1>());
+}
 
 // What the localizer runs on: the map, the settings and the sequence read with them.
 struct LocalizeInputs {
@@ -183,6 +213,9 @@ void run_localize(const LocalizeArgs& args) {
                args.map.string(), in.map->keyframes(), in.map->points(),
                in.map->metadata.frame_name, args.bind, server->port(), args.publish.size());
 
+  // Published poses: world_from_head when the headset mounting is given, else world_from_cam.
+  const SE3 cam_from_published = args.head.empty() ? SE3() : read_cam_from_head(args.head);
+  const char* published_name = args.head.empty() ? "world_from_cam" : "world_from_head";
   Localizer localizer(*in.map, in.vocabulary, in.settings,
                       slam::localize::options_from_settings(in.settings));
   SessionTotals totals;
@@ -197,11 +230,11 @@ void run_localize(const LocalizeArgs& args) {
           server->set_latest(fusion::PoseMessage::from_pose(time, sequence_number, 0, last_pose));
           return;
         }
-        last_pose = r.world_from_cam;
+        last_pose = r.world_from_cam * cam_from_published;
         totals.inliers_sum += r.inliers;
         totals.rms_sum += r.reprojection_rms_px;
         server->publish(fusion::PoseMessage::from_pose(
-            time, sequence_number++, static_cast<std::int32_t>(r.state), r.world_from_cam));
+            time, sequence_number++, static_cast<std::int32_t>(r.state), last_pose));
         totals.published += args.publish.size();
         if (first_replay) totals.trajectory.push_back({time, r.world_from_cam});
       });
@@ -228,6 +261,7 @@ void run_localize(const LocalizeArgs& args) {
                                     osc_stats.invalid_values;
   if (args.json) {
     print_json({{"frames", s.frames},
+                {"published_pose", published_name},
                 {"localized", s.localized},
                 {"lost", s.lost},
                 {"relocalizations", s.relocalizations},
@@ -259,10 +293,10 @@ void run_localize(const LocalizeArgs& args) {
             << s.first_localized_frame << " after " << s.ms_to_first_pose << " ms; inliers mean "
             << totals.inliers_sum / localized << ", reprojection RMS mean "
             << totals.rms_sum / localized << " px"
-            << "\nposes world_from_cam in the map's frame '" << in.map->metadata.frame_name
-            << "'; OSC port " << server->port() << ", " << totals.published << " sent, "
-            << server->requests_answered() << " requests answered, " << bad_packets
-            << " bad packets dropped\n";
+            << "\nOSC poses " << published_name << " in the map's frame '"
+            << in.map->metadata.frame_name << "'; OSC port " << server->port() << ", "
+            << totals.published << " sent, " << server->requests_answered()
+            << " requests answered, " << bad_packets << " bad packets dropped\n";
   if (aligned && unaligned)
     std::cout << "ATE RMSE vs ground truth: " << unaligned->translation.rmse
               << " m without alignment"
@@ -379,6 +413,11 @@ void add_localize_verb(CLI::App& app, CLI::App& bench) {
                   "TUM file whose first pose maps the map's frame into the ground truth's (for "
                   "the ATE without alignment; a twin: groundtruth/scan_from_sequence_start.txt of "
                   "the mapped walk)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--cam-from-head", args->head,
+                  "YAML with the 4x4 cam_from_head (or cam_from_headset) of the camera on the "
+                  "headset: OSC poses become world_from_head (the trajectory file stays "
+                  "world_from_cam)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--publish", args->publish,
                   "Send every localized pose as /coloc/pose to osc.udp://HOST:PORT (repeatable)");
