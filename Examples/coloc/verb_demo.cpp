@@ -36,36 +36,18 @@ struct DemoArgs {
   bool skip_twin = false;
 };
 
-// Runs `coloc ARGS...` (this very executable) and waits; throws CliFailure when it fails.
-void run_verb(const std::vector<std::string>& args) {
+std::string shown_command(const std::vector<std::string>& args) {
   std::string shown = "coloc";
   for (const auto& a : args)
     shown += " " + a;
-  std::printf("  $ %s\n", shown.c_str());
-  std::fflush(stdout);
-  std::vector<std::string> argv_store = {"coloc"};
-  argv_store.insert(argv_store.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (auto& a : argv_store)
-    argv.push_back(a.data());
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  if (posix_spawn(&pid, "/proc/self/exe", nullptr, nullptr, argv.data(), environ) != 0) {
-    throw CliFailure("cannot start: " + shown);
-  }
-  int status = 0;
-  if (waitpid(pid, &status, 0) < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-    throw CliFailure("step failed: " + shown);
-  }
+  return shown;
 }
 
-// Starts `coloc ARGS...` without waiting (a peer process, e.g. the fusion node); stop_verb()
-// ends it with SIGINT and waits.
-pid_t start_verb(const std::vector<std::string>& args) {
-  std::string shown = "coloc";
-  for (const auto& a : args)
-    shown += " " + a;
-  std::printf("  $ %s &\n", shown.c_str());
+// Starts `coloc ARGS...` (this very executable), printing the command first (" &" when the demo
+// goes on without waiting); throws CliFailure when it cannot start.
+pid_t start_verb(const std::vector<std::string>& args, bool background = false) {
+  const std::string shown = shown_command(args);
+  std::printf("  $ %s%s\n", shown.c_str(), background ? " &" : "");
   std::fflush(stdout);
   std::vector<std::string> argv_store = {"coloc"};
   argv_store.insert(argv_store.end(), args.begin(), args.end());
@@ -79,11 +61,21 @@ pid_t start_verb(const std::vector<std::string>& args) {
   return pid;
 }
 
-void stop_verb(pid_t pid, const std::string& what) {
-  kill(pid, SIGINT);
+void wait_verb(pid_t pid, const std::string& shown) {
   int status = 0;
   if (waitpid(pid, &status, 0) < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    throw CliFailure("step failed: " + what);
+    throw CliFailure("step failed: " + shown);
+}
+
+// Runs `coloc ARGS...` and waits; throws CliFailure when it fails.
+void run_verb(const std::vector<std::string>& args) {
+  wait_verb(start_verb(args), shown_command(args));
+}
+
+// Ends a verb started in the background (SIGINT, as a user would) and waits for it.
+void stop_verb(pid_t pid, const std::string& shown) {
+  kill(pid, SIGINT);
+  wait_verb(pid, shown);
 }
 
 // A UDP port free on loopback now (the fusion node binds it right after).
@@ -240,17 +232,18 @@ void demo_twin(const DemoArgs& a, const std::filesystem::path& out, int& step) {
               "1", "--no-scan", "--out", walk.string()});
   }
   const std::string port = std::to_string(free_udp_port());
-  const pid_t fuse = start_verb({"fuse", "--listen", port});
+  const std::vector<std::string> fuse_args = {"fuse", "--listen", port};
+  const pid_t fuse = start_verb(fuse_args, true);
   try {
     run_verb({"localize", "--map", scan_db, "--sequence", (walk / "sequence").string(),
               "--trajectory", (out / "twin_walk1_localized.txt").string(), "--cam-from-head",
               (walk / "headset" / "calibration.yaml").string(), "--publish",
               "osc.udp://127.0.0.1:" + port});
   } catch (...) {
-    stop_verb(fuse, "coloc fuse");
+    stop_verb(fuse, shown_command(fuse_args));
     throw;
   }
-  stop_verb(fuse, "coloc fuse --listen " + port);
+  stop_verb(fuse, shown_command(fuse_args));
 }
 
 // SLAM on a real recording (TUM fr1/xyz) with its motion-capture ground truth.
