@@ -40,6 +40,11 @@ void TrackingOptions::check() const {
     throw Error("TrackingOptions.rolling_shutter_keep_ratio must be in (0, 1]");
   if (!(rolling_shutter_rate_sigma >= 0.0))
     throw Error("TrackingOptions.rolling_shutter_rate_sigma must be >= 0");
+  if (!(reloc_gate_seconds >= 0.0)) throw Error("TrackingOptions.reloc_gate_seconds must be >= 0");
+  if (!(reloc_gate_m >= 0.0)) throw Error("TrackingOptions.reloc_gate_m must be >= 0");
+  if (!(reloc_gate_speed >= 0.0)) throw Error("TrackingOptions.reloc_gate_speed must be >= 0");
+  if (reloc_pause_min_inliers < 0)
+    throw Error("TrackingOptions.reloc_pause_min_inliers must be >= 0");
   relocalization.check();
 }
 
@@ -132,6 +137,11 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
         has_velocity_ = false;
       }
       state_ = ok ? TrackingState::kOk : TrackingState::kLost;
+      if (ok) {
+        last_tracked_centre_ = current_.cam_from_world.inverse().translation();
+        last_tracked_time_ = timestamp;
+        has_last_tracked_ = true;
+      }
     }
     if (state_ != TrackingState::kNotInitialized) record_frame(ok);
     if (make_keyframe) {
@@ -292,6 +302,19 @@ bool Tracker::relocalize() {
   const auto r =
       reloc::relocalize(current_, shared_.map, shared_.database, options_.relocalization);
   if (!r.success) return false;
+  const double dt = current_.timestamp - last_tracked_time_;
+  if (has_last_tracked_ && dt >= 0.0 && dt < options_.reloc_gate_seconds) {
+    const double jump =
+        (current_.cam_from_world.inverse().translation() - last_tracked_centre_).norm();
+    const double allowed = options_.reloc_gate_m + options_.reloc_gate_speed * dt;
+    if (jump > allowed) {
+      spdlog::info(
+          "tracking: relocalization at frame {} against keyframe {} ({} inliers) refused: {:.2f} "
+          "m from the last tracked pose {:.2f} s ago (at most {:.2f} m)",
+          current_.id.value(), r.keyframe.value(), r.inliers, jump, dt, allowed);
+      return false;
+    }
+  }
   reference_ = r.keyframe;
   last_reloc_frame_ = current_.id;
   ++relocalizations_;
@@ -403,7 +426,9 @@ bool Tracker::need_keyframe() const {
   const std::uint64_t since_reloc =
       last_reloc_frame_.valid() ? current_.id.value() - last_reloc_frame_.value() : ~0ULL;
   const auto max_frames = static_cast<std::uint64_t>(options_.max_frames_between_keyframes);
-  if (since_reloc < max_frames && n_kfs > max_frames) return false;
+  if (since_reloc < max_frames && n_kfs > max_frames &&
+      matches_inliers_ >= options_.reloc_pause_min_inliers)
+    return false;
   const map::Keyframe* ref = m.keyframe(reference_);
   if (!ref) return true;
   const int min_obs = n_kfs <= 2 ? 2 : 3;

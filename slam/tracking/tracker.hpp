@@ -51,6 +51,18 @@ struct TrackingOptions {
   // Keep a FrameRecord per frame (the trajectory); false keeps only the last one, so memory
   // stays flat over a long localization session.
   bool keep_records = true;
+  // A relocalization soon after tracking was lost must land where the camera can have got to
+  // since its last tracked frame: a place that only looks alike (repeated rooms and textures of
+  // a building) is farther. Within reloc_gate_seconds of that frame the new camera centre may
+  // be at most reloc_gate_m + reloc_gate_speed * dt away; later, or from a cold start,
+  // anywhere. (A 56-inlier relocalization 40 m away tore a continued twin map apart.)
+  double reloc_gate_seconds = 3.0;
+  double reloc_gate_m = 0.5;      // metres (also covers a loop correction meanwhile)
+  double reloc_gate_speed = 2.0;  // metres per second: faster than a walking user
+  // ORB-SLAM makes no keyframe for max_frames_between_keyframes frames after a relocalization,
+  // unless (ours) tracking is thinning out: fewer local-map inliers than this. A continued map
+  // is left at once for unmapped space, where that pause lost tracking.
+  int reloc_pause_min_inliers = 100;
   reloc::RelocalizationOptions relocalization;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
@@ -141,6 +153,10 @@ class Tracker {
   FrameId last_keyframe_frame_;
   FrameId last_reloc_frame_;
   int matches_inliers_ = 0;
+  // Camera centre and time of the last tracked frame (the relocalization gate).
+  Eigen::Vector3d last_tracked_centre_ = Eigen::Vector3d::Zero();
+  double last_tracked_time_ = 0.0;
+  bool has_last_tracked_ = false;
   int relocalizations_ = 0;
   std::vector<KeyframeId> local_keyframes_;
   std::vector<MapPointId> local_points_;

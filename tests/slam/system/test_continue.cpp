@@ -145,5 +145,32 @@ TEST(ContinueMapping, ARecordingOfAnotherPlaceAddsNothing) {
   EXPECT_EQ(s.lost, 20u);
 }
 
+// The relocalization gate: soon after the last tracked frame, a relocalized pose farther than
+// the camera can have moved is refused (a look-alike place); later it is accepted. Here the
+// gate is set tight (1 cm, no speed) so that a real place a few centimetres on is "too far".
+TEST(RelocalizationGate, RefusesAJumpSoonAfterTrackingAndAcceptsItLater) {
+  const SyntheticRgbdScene scene = walk();
+  SystemOptions options = sequential();
+  options.tracking.reloc_gate_m = 0.01;
+  options.tracking.reloc_gate_speed = 0.0;
+  options.tracking.reloc_gate_seconds = 2.0;
+  System slam(scene.settings(), vocabulary(), options);
+  ASSERT_EQ(track(slam, scene, 0, 12), 12);
+  const double t_last = scene.frame(11).timestamp;
+  const auto far = scene.frame(40);
+  ASSERT_GT(
+      (scene.world_from_cam(40).translation() - scene.world_from_cam(11).translation()).norm(),
+      0.02);
+  const cv::Mat blank(far.color.size(), far.color.type(), cv::Scalar::all(0));
+  EXPECT_EQ(slam.track(blank, far.depth, t_last + 0.03).state, tracking::TrackingState::kLost);
+  // 0.1 s after the last tracked frame: refused, however good the match.
+  EXPECT_EQ(slam.track(far.color, far.depth, t_last + 0.1).state, tracking::TrackingState::kLost);
+  // After the gate's time: anywhere.
+  const auto r = slam.track(far.color, far.depth, t_last + 2.5);
+  EXPECT_EQ(r.state, tracking::TrackingState::kOk);
+  EXPECT_TRUE(r.relocalized);
+  EXPECT_EQ(slam.summary().relocalizations, 1);
+}
+
 }  // namespace
 }  // namespace coloc::slam::system
