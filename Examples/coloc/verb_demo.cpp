@@ -52,6 +52,7 @@ pid_t start_verb(const std::vector<std::string>& args, bool background = false) 
   std::vector<std::string> argv_store = {"coloc"};
   argv_store.insert(argv_store.end(), args.begin(), args.end());
   std::vector<char*> argv;
+  argv.reserve(argv_store.size() + 1);
   for (auto& a : argv_store)
     argv.push_back(a.data());
   argv.push_back(nullptr);

@@ -100,14 +100,7 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
     } else {
       Stopwatch stage;
       if (state_ == TrackingState::kOk) {
-        if (!shared_.map.keyframe(reference_)) update_local_map();
-        follow_reference_of_last_frame();
-        ok = has_velocity_ && track_motion_model(velocity_);
-        if (!ok) ok = track_reference_keyframe();
-        // Right after a relocalization there is no velocity yet, and the reference keyframe's
-        // BoW matches can be too few (the relocalizing frame needed projection passes too): the
-        // last frame's matches, projected from where it was, still find this one.
-        if (!ok && !has_velocity_ && last_.has_pose) ok = track_motion_model(SE3());
+        ok = track_from_last_frame();
       } else {
         ok = relocalize();
         result.relocalized = ok;
@@ -140,7 +133,6 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
       if (ok) {
         last_tracked_centre_ = current_.cam_from_world.inverse().translation();
         last_tracked_time_ = timestamp;
-        has_last_tracked_ = true;
       }
     }
     if (state_ != TrackingState::kNotInitialized) record_frame(ok);
@@ -260,6 +252,17 @@ bool Tracker::initialize() {
   return true;
 }
 
+bool Tracker::track_from_last_frame() {
+  if (!shared_.map.keyframe(reference_)) update_local_map();
+  follow_reference_of_last_frame();
+  if (has_velocity_ && track_motion_model(velocity_)) return true;
+  if (track_reference_keyframe()) return true;
+  // Right after a relocalization there is no velocity yet, and the reference keyframe's BoW
+  // matches can be too few (the relocalizing frame needed projection passes too): the last
+  // frame's matches, projected from where it was, still find this one.
+  return !has_velocity_ && last_.has_pose && track_motion_model(SE3());
+}
+
 bool Tracker::track_motion_model(const SE3& velocity) {
   const map::Map& m = shared_.map;
   current_.cam_from_world = velocity * last_.cam_from_world;
@@ -302,8 +305,8 @@ bool Tracker::relocalize() {
   const auto r =
       reloc::relocalize(current_, shared_.map, shared_.database, options_.relocalization);
   if (!r.success) return false;
-  const double dt = current_.timestamp - last_tracked_time_;
-  if (has_last_tracked_ && dt >= 0.0 && dt < options_.reloc_gate_seconds) {
+  const double dt = last_tracked_time_ ? current_.timestamp - *last_tracked_time_ : 0.0;
+  if (last_tracked_time_ && dt >= 0.0 && dt < options_.reloc_gate_seconds) {
     const double jump =
         (current_.cam_from_world.inverse().translation() - last_tracked_centre_).norm();
     const double allowed = options_.reloc_gate_m + options_.reloc_gate_speed * dt;

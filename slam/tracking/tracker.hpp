@@ -12,6 +12,7 @@
 // writes the map, not while it extracts features.
 #include <memory>
 #include <opencv2/core/mat.hpp>
+#include <optional>
 #include <vector>
 
 #include "slam/bow/vocabulary.hpp"
@@ -118,6 +119,8 @@ class Tracker {
  private:
   bool initialize();
   // Projects the last frame's matches from velocity * last pose (current_from_last).
+  // Motion model, else the reference keyframe, else (just relocalized) zero motion.
+  bool track_from_last_frame();
   bool track_motion_model(const SE3& velocity);
   bool track_reference_keyframe();
   bool relocalize();
@@ -155,8 +158,7 @@ class Tracker {
   int matches_inliers_ = 0;
   // Camera centre and time of the last tracked frame (the relocalization gate).
   Eigen::Vector3d last_tracked_centre_ = Eigen::Vector3d::Zero();
-  double last_tracked_time_ = 0.0;
-  bool has_last_tracked_ = false;
+  std::optional<double> last_tracked_time_;
   int relocalizations_ = 0;
   std::vector<KeyframeId> local_keyframes_;
   std::vector<MapPointId> local_points_;
