@@ -191,6 +191,86 @@ void write_trajectory(const fs::path& path, const Trajectory& trajectory) {
   file.commit();
 }
 
+fusion::PoseServerOptions server_options(const LocalizeArgs& args) {
+  fusion::PoseServerOptions osc;
+  osc.endpoint.bind_address = args.bind;
+  osc.endpoint.port = std::max(args.listen, 0);
+  osc.endpoint.broadcast = args.broadcast;
+  osc.targets = args.publish;
+  return osc;
+}
+
+// The localized trajectory moved by a known (not fitted) transform into the ground truth's
+// frame: the first pose of the --gt-from-map file; unchanged without one.
+Trajectory in_ground_truth_frame(Trajectory t, const fs::path& gt_from_map) {
+  if (gt_from_map.empty()) return t;
+  const Trajectory file = read_tum_trajectory(gt_from_map);
+  if (file.empty()) throw Error("no pose in the file", {.file = gt_from_map.string()});
+  for (auto& p : t)
+    p.world_from_cam = file.front().world_from_cam * p.world_from_cam;
+  return t;
+}
+
+// The end-of-run summary (text or --json): counts, times, OSC, accuracy against the ground truth.
+void print_summary(const LocalizeArgs& args, const LocalizeInputs& in,
+                   const slam::localize::LocalizerStats& s, const SessionTotals& totals,
+                   const fusion::PoseServer& server, const char* published_name) {
+  const dataset::Sequence& sequence = *in.sequence;
+  const double localized = std::max<double>(1.0, static_cast<double>(s.localized));
+  const auto aligned = ate(sequence, totals.trajectory, eval::Alignment::kSE3);
+  // Without alignment: in the map's frame, or moved by a known (not fitted) transform into the
+  // ground truth's frame (a twin map: the mapped walk's scan_from_sequence_start.txt).
+  const auto unaligned = ate(sequence, in_ground_truth_frame(totals.trajectory, args.gt_from_map),
+                             eval::Alignment::kNone);
+  const fusion::OscStats osc_stats = server.stats();
+  const std::uint64_t bad_packets = osc_stats.oversized + osc_stats.malformed +
+                                    osc_stats.unknown_address + osc_stats.wrong_types +
+                                    osc_stats.invalid_values;
+  if (args.json) {
+    print_json({{"frames", s.frames},
+                {"published_pose", published_name},
+                {"localized", s.localized},
+                {"lost", s.lost},
+                {"relocalizations", s.relocalizations},
+                {"dropped", totals.dropped},
+                {"skipped", totals.skipped},
+                {"ms_per_frame_median", s.total_ms.quantile(0.5)},
+                {"ms_per_frame_p99", s.total_ms.quantile(0.99)},
+                {"ms_per_frame_max", s.total_ms.max()},
+                {"first_localized_frame", s.first_localized_frame},
+                {"ms_to_first_pose", s.ms_to_first_pose},
+                {"inliers_mean", totals.inliers_sum / localized},
+                {"reprojection_rms_px_mean", totals.rms_sum / localized},
+                {"frame", in.map->metadata.frame_name},
+                {"map_keyframes", in.map->keyframes()},
+                {"map_points", in.map->points()},
+                {"osc_port", server.port()},
+                {"published", totals.published},
+                {"requests_answered", server.requests_answered()},
+                {"osc_bad_packets", bad_packets},
+                {"ate_rmse_m", aligned ? Json(aligned->translation.rmse) : Json()},
+                {"ate_unaligned_rmse_m", unaligned ? Json(unaligned->translation.rmse) : Json()}});
+    return;
+  }
+  std::cout << "frames " << s.frames << ", localized " << s.localized << ", lost " << s.lost
+            << ", relocalizations " << s.relocalizations << ", dropped " << totals.dropped
+            << (totals.skipped ? ", skipped (unreadable) " + std::to_string(totals.skipped) : "")
+            << "\nms/frame: median " << s.total_ms.quantile(0.5) << ", p99 "
+            << s.total_ms.quantile(0.99) << ", max " << s.total_ms.max() << "\nfirst pose at frame "
+            << s.first_localized_frame << " after " << s.ms_to_first_pose << " ms; inliers mean "
+            << totals.inliers_sum / localized << ", reprojection RMS mean "
+            << totals.rms_sum / localized << " px"
+            << "\nOSC poses " << published_name << " in the map's frame '"
+            << in.map->metadata.frame_name << "'; OSC port " << server.port() << ", "
+            << totals.published << " sent, " << server.requests_answered() << " requests answered, "
+            << bad_packets << " bad packets dropped\n";
+  if (aligned && unaligned)
+    std::cout << "ATE RMSE vs ground truth: " << unaligned->translation.rmse
+              << " m without alignment"
+              << (args.gt_from_map.empty() ? " (map frame)" : " (map frame moved by --gt-from-map)")
+              << ", " << aligned->translation.rmse << " m after SE3 alignment\n";
+}
+
 void run_localize(const LocalizeArgs& args) {
   // Unwritable outputs are errors before the run, not after it.
   std::optional<slam::mapdb::AtomicFile> probe;
@@ -202,12 +282,7 @@ void run_localize(const LocalizeArgs& args) {
       args.frames == 0 ? sequence.size() : std::min(sequence.size(), args.start + args.frames);
 
   std::optional<fusion::PoseServer> server;
-  fusion::PoseServerOptions osc;
-  osc.endpoint.bind_address = args.bind;
-  osc.endpoint.port = std::max(args.listen, 0);
-  osc.endpoint.broadcast = args.broadcast;
-  osc.targets = args.publish;
-  server.emplace(osc);
+  server.emplace(server_options(args));
   server->start();
   spdlog::info("localize: map {} ({} keyframes, {} points, frame '{}'), OSC on {}:{} -> {} targets",
                args.map.string(), in.map->keyframes(), in.map->points(),
@@ -242,66 +317,7 @@ void run_localize(const LocalizeArgs& args) {
   server->stop();
   if (!args.trajectory.empty()) write_trajectory(args.trajectory, totals.trajectory);
 
-  const auto& s = localizer.stats();
-  const double localized = std::max<double>(1.0, static_cast<double>(s.localized));
-  const auto aligned = ate(sequence, totals.trajectory, eval::Alignment::kSE3);
-  // Without alignment: in the map's frame, or moved by a known (not fitted) transform into the
-  // ground truth's frame (a twin map: the mapped walk's scan_from_sequence_start.txt).
-  Trajectory in_gt_frame = totals.trajectory;
-  if (!args.gt_from_map.empty()) {
-    const Trajectory t = read_tum_trajectory(args.gt_from_map);
-    if (t.empty()) throw Error("no pose in the file", {.file = args.gt_from_map.string()});
-    for (auto& p : in_gt_frame)
-      p.world_from_cam = t.front().world_from_cam * p.world_from_cam;
-  }
-  const auto unaligned = ate(sequence, in_gt_frame, eval::Alignment::kNone);
-  const fusion::OscStats osc_stats = server->stats();
-  const std::uint64_t bad_packets = osc_stats.oversized + osc_stats.malformed +
-                                    osc_stats.unknown_address + osc_stats.wrong_types +
-                                    osc_stats.invalid_values;
-  if (args.json) {
-    print_json({{"frames", s.frames},
-                {"published_pose", published_name},
-                {"localized", s.localized},
-                {"lost", s.lost},
-                {"relocalizations", s.relocalizations},
-                {"dropped", totals.dropped},
-                {"skipped", totals.skipped},
-                {"ms_per_frame_median", s.total_ms.quantile(0.5)},
-                {"ms_per_frame_p99", s.total_ms.quantile(0.99)},
-                {"ms_per_frame_max", s.total_ms.max()},
-                {"first_localized_frame", s.first_localized_frame},
-                {"ms_to_first_pose", s.ms_to_first_pose},
-                {"inliers_mean", totals.inliers_sum / localized},
-                {"reprojection_rms_px_mean", totals.rms_sum / localized},
-                {"frame", in.map->metadata.frame_name},
-                {"map_keyframes", in.map->keyframes()},
-                {"map_points", in.map->points()},
-                {"osc_port", server->port()},
-                {"published", totals.published},
-                {"requests_answered", server->requests_answered()},
-                {"osc_bad_packets", bad_packets},
-                {"ate_rmse_m", aligned ? Json(aligned->translation.rmse) : Json()},
-                {"ate_unaligned_rmse_m", unaligned ? Json(unaligned->translation.rmse) : Json()}});
-    return;
-  }
-  std::cout << "frames " << s.frames << ", localized " << s.localized << ", lost " << s.lost
-            << ", relocalizations " << s.relocalizations << ", dropped " << totals.dropped
-            << (totals.skipped ? ", skipped (unreadable) " + std::to_string(totals.skipped) : "")
-            << "\nms/frame: median " << s.total_ms.quantile(0.5) << ", p99 "
-            << s.total_ms.quantile(0.99) << ", max " << s.total_ms.max() << "\nfirst pose at frame "
-            << s.first_localized_frame << " after " << s.ms_to_first_pose << " ms; inliers mean "
-            << totals.inliers_sum / localized << ", reprojection RMS mean "
-            << totals.rms_sum / localized << " px"
-            << "\nOSC poses " << published_name << " in the map's frame '"
-            << in.map->metadata.frame_name << "'; OSC port " << server->port() << ", "
-            << totals.published << " sent, " << server->requests_answered()
-            << " requests answered, " << bad_packets << " bad packets dropped\n";
-  if (aligned && unaligned)
-    std::cout << "ATE RMSE vs ground truth: " << unaligned->translation.rmse
-              << " m without alignment"
-              << (args.gt_from_map.empty() ? " (map frame)" : " (map frame moved by --gt-from-map)")
-              << ", " << aligned->translation.rmse << " m after SE3 alignment\n";
+  print_summary(args, in, localizer.stats(), totals, *server, published_name);
 }
 
 // Resident set size of this process (bytes), from /proc/self/statm; 0 when unreadable.

@@ -24,9 +24,9 @@ inline std::filesystem::path source_dir() {
 // Loaded once per binary (an inline function's static is shared by every test file): the
 // vocabulary takes a moment to read.
 inline const bow::Vocabulary& vocabulary() {
-  static const bow::Vocabulary v =
+  static const bow::Vocabulary kVocabulary =
       bow::Vocabulary::load(source_dir() / "Vocabulary/coloc_orb_k10_L5.cvoc");
-  return v;
+  return kVocabulary;
 }
 
 // 640x480 pinhole, f = 500, bf = 40, close depth 3 m, three pyramid levels.
