@@ -322,7 +322,8 @@ bool MarkerCornerCost::Evaluate(double const* const* parameters, double* residua
 
 MarkerBaReport marker_bundle_adjustment(slam::map::Map& map, const ScanCorners& scan,
                                         const Camera& camera, const std::vector<int>& use_ids,
-                                        const MarkerBaOptions& o) {
+                                        const MarkerBaOptions& o,
+                                        const std::unordered_set<KeyframeId>& fixed_keyframes) {
   o.check();
   if (map.keyframe_count() < 2) {
     throw Error("the map has " + std::to_string(map.keyframe_count()) +
@@ -335,8 +336,10 @@ MarkerBaReport marker_bundle_adjustment(slam::map::Map& map, const ScanCorners& 
     all.push_back(id);
   std::sort(all.begin(), all.end());  // deterministic problem order
   slam::mapping::BaWindow w = slam::mapping::make_window(map, all);
-  for (auto& pose : w.problem.poses)
-    pose.fixed = false;  // the fixed marker corners hold the gauge
+  for (std::size_t i = 0; i < w.problem.poses.size(); ++i) {
+    // The fixed marker corners hold the gauge; refined keyframes are held where PnP put them.
+    w.problem.poses[i].fixed = fixed_keyframes.contains(w.pose_ids[i]);
+  }
   const MarkerTerms markers = marker_terms(map, w, scan, camera, use_ids);
   const optim::Intrinsics& k = w.intrinsics;
 

@@ -31,6 +31,7 @@
 
 #include <array>
 #include <map>
+#include <unordered_set>
 #include <vector>
 
 #include "slam/core/camera.hpp"
@@ -85,9 +86,12 @@ using ScanCorners = std::map<int, std::array<Eigen::Vector3d, 4>>;
 // to `use_ids` unless it is empty. Marker pixels are undistorted through `camera` (the intrinsics
 // must match the keyframes' geometry). Throws coloc::Error for invalid options or a map with
 // fewer than two keyframes.
+// Keyframes in `fixed_keyframes` keep their poses (held constant in both terms: the point-cloud
+// refinement's accepted keyframes, refine.hpp); the others and every point move.
 MarkerBaReport marker_bundle_adjustment(slam::map::Map& map, const ScanCorners& scan,
                                         const Camera& camera, const std::vector<int>& use_ids = {},
-                                        const MarkerBaOptions& options = {});
+                                        const MarkerBaOptions& options = {},
+                                        const std::unordered_set<KeyframeId>& fixed_keyframes = {});
 
 // The marker term: residual = inv_sigma * (m_kj - Pi(C_k, M_j)) with M_j fixed; analytic
 // Jacobian in the pose manifold's lifted form (slam/optim/bundle_adjustment.hpp). Exposed for

@@ -1,0 +1,160 @@
+#include "registration/align/scan_cloud.hpp"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+
+#include "e57io/error.hpp"
+#include "e57io/reader.hpp"
+#include "slam/core/error.hpp"
+#include "slam/core/timing.hpp"
+
+namespace coloc::registration::align {
+
+namespace {
+
+// 21 bits per axis: +-1M voxels, 10 km at 1 cm.
+std::uint64_t voxel_key(const Eigen::Vector3f& p, double inv_size) {
+  constexpr std::int64_t kHalf = 1 << 20;
+  const auto axis = [&](float v) {
+    const auto i = static_cast<std::int64_t>(std::floor(static_cast<double>(v) * inv_size));
+    return static_cast<std::uint64_t>(std::clamp<std::int64_t>(i + kHalf, 0, 2 * kHalf - 1));
+  };
+  return (axis(p.x()) << 42) | (axis(p.y()) << 21) | axis(p.z());
+}
+
+std::uint8_t to_byte(double v, double lo, double hi) {
+  const double t = hi > lo ? (v - lo) / (hi - lo) : v / 255.0;
+  return static_cast<std::uint8_t>(std::lround(std::clamp(t, 0.0, 1.0) * 255.0));
+}
+
+}  // namespace
+
+void ScanCloudOptions::check() const {
+  if (!(voxel_size >= 0.0)) throw Error("must be >= 0 (metres)", {.field = "voxel_size"});
+  if (!(splat_factor >= 0.5)) throw Error("must be >= 0.5", {.field = "splat_factor"});
+  if (!(max_splat_pixels >= 1.0f)) throw Error("must be >= 1", {.field = "max_splat_pixels"});
+  if (!(max_range >= 0.0)) throw Error("must be >= 0 (metres)", {.field = "max_range"});
+}
+
+render::PointCloud voxel_downsample(const render::PointCloud& cloud, const ScanCloudOptions& o) {
+  o.check();
+  render::PointCloud out;
+  out.max_splat_pixels = o.max_splat_pixels;
+  out.splat_size = static_cast<float>(std::max(o.voxel_size, 0.005) * o.splat_factor);
+  if (o.voxel_size <= 0.0) {
+    out.points = cloud.points;
+    out.colours = cloud.colours;
+    return out;
+  }
+  const double inv = 1.0 / o.voxel_size;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keys(cloud.points.size());
+  for (std::size_t i = 0; i < cloud.points.size(); ++i)
+    keys[i] = {voxel_key(cloud.points[i], inv), static_cast<std::uint32_t>(i)};
+  std::sort(keys.begin(), keys.end());
+  for (std::size_t a = 0; a < keys.size();) {
+    std::size_t b = a;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    Eigen::Vector3d rgb = Eigen::Vector3d::Zero();
+    for (; b < keys.size() && keys[b].first == keys[a].first; ++b) {
+      const std::uint32_t i = keys[b].second;
+      sum += cloud.points[i].cast<double>();
+      const auto& c = cloud.colours[i];
+      rgb += Eigen::Vector3d(c[0], c[1], c[2]);
+    }
+    const double n = static_cast<double>(b - a);
+    out.points.push_back((sum / n).cast<float>());
+    rgb /= n;
+    out.colours.push_back({static_cast<std::uint8_t>(std::lround(rgb.x())),
+                           static_cast<std::uint8_t>(std::lround(rgb.y())),
+                           static_cast<std::uint8_t>(std::lround(rgb.z()))});
+    a = b;
+  }
+  return out;
+}
+
+render::PointCloud load_scan_cloud(
+    const std::filesystem::path& path, const ScanCloudOptions& o, ScanCloudStats* stats,
+    const std::function<void(std::uint64_t, std::uint64_t)>& progress) {
+  o.check();
+  Stopwatch watch;
+  ScanCloudStats s;
+  render::PointCloud all;
+  try {
+    const e57::Reader reader(path);
+    std::uint64_t total = 0;
+    for (const e57::Data3D& d : reader.scans())
+      total += d.point_count;
+    const std::uint32_t xyz = e57::field_bit(e57::PointField::kCartesianX) |
+                              e57::field_bit(e57::PointField::kCartesianY) |
+                              e57::field_bit(e57::PointField::kCartesianZ);
+    const std::uint32_t rgb = e57::field_bit(e57::PointField::kColorRed) |
+                              e57::field_bit(e57::PointField::kColorGreen) |
+                              e57::field_bit(e57::PointField::kColorBlue);
+    const std::uint32_t intensity = e57::field_bit(e57::PointField::kIntensity);
+    all.points.reserve(total);
+    all.colours.reserve(total);
+    for (std::size_t si = 0; si < reader.scans().size(); ++si) {
+      const e57::Data3D& d = reader.scans()[si];
+      if ((d.field_mask & xyz) != xyz) continue;
+      std::uint32_t mask = xyz;
+      const bool has_rgb = (d.field_mask & rgb) == rgb;
+      const bool has_i = !has_rgb && (d.field_mask & intensity) != 0;
+      if (has_rgb) mask |= rgb;
+      if (has_i) mask |= intensity;
+      const auto invalid = e57::field_bit(e57::PointField::kCartesianInvalidState);
+      if (d.field_mask & invalid) mask |= invalid;
+      s.colour = s.colour || has_rgb;
+      Eigen::Isometry3d world_from_scan = Eigen::Isometry3d::Identity();
+      if (d.pose) {
+        const e57::Pose& p = *d.pose;
+        world_from_scan.linear() =
+            Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z)
+                .normalized()
+                .toRotationMatrix();
+        world_from_scan.translation() =
+            Eigen::Vector3d(p.translation.x, p.translation.y, p.translation.z);
+      }
+      e57::ColorLimits cl{0, 255, 0, 255, 0, 255};
+      if (d.color_limits) cl = *d.color_limits;
+      e57::IntensityLimits il{0, 1};
+      if (d.intensity_limits) il = *d.intensity_limits;
+      ++s.scans;
+      e57::PointStream stream = reader.open_points(si, mask);
+      e57::PointBuffer b;
+      while (stream.read(b, 1 << 16) > 0) {
+        for (std::size_t i = 0; i < b.size; ++i) {
+          if (!b.cartesian_invalid_state.empty() && b.cartesian_invalid_state[i] != 0) continue;
+          const Eigen::Vector3d local(b.cartesian_x[i], b.cartesian_y[i], b.cartesian_z[i]);
+          if (o.max_range > 0.0 && local.norm() > o.max_range) continue;
+          all.points.push_back((world_from_scan * local).cast<float>());
+          if (has_rgb) {
+            all.colours.push_back({to_byte(b.color_red[i], cl.red_min, cl.red_max),
+                                   to_byte(b.color_green[i], cl.green_min, cl.green_max),
+                                   to_byte(b.color_blue[i], cl.blue_min, cl.blue_max)});
+          } else if (has_i) {
+            const std::uint8_t g = to_byte(b.intensity[i], il.minimum, il.maximum);
+            all.colours.push_back({g, g, g});
+          } else {
+            all.colours.push_back({128, 128, 128});
+          }
+        }
+        s.points_read += b.size;
+        if (progress) progress(s.points_read, total);
+      }
+    }
+  } catch (const e57::Error& e) {
+    throw Error(std::string("cannot read the scan: ") + e.what(), {.file = path.string()});
+  }
+  if (s.scans == 0)
+    throw Error("no scan with cartesian coordinates", {.file = path.string(), .field = "data3D"});
+  if (all.points.empty())
+    throw Error("the scan holds no valid point", {.file = path.string(), .field = "data3D"});
+  render::PointCloud out = voxel_downsample(all, o);
+  s.points_kept = out.points.size();
+  s.ms = watch.elapsed_ms();
+  if (stats) *stats = s;
+  return out;
+}
+
+}  // namespace coloc::registration::align
