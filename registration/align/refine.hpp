@@ -30,6 +30,8 @@ struct RefineOptions {
   double max_correction_m = 0.25;
   double max_correction_deg = 3.0;
   int threads = 2;
+  // Render-match-PnP passes per keyframe; each later pass renders at the previous PnP pose.
+  int iterations = 2;
   bool bundle_adjust = true;  // false: only set the accepted poses
   // Throws coloc::Error naming the first invalid field.
   void check() const;
@@ -46,9 +48,11 @@ struct KeyframeRefinement {
   SE3 pnp;         // the PnP pose (meaningful when has_pose)
   bool has_pose = false;
   double correction_m = 0.0, correction_deg = 0.0;
-  double median_offset_px = 0.0;  // 2-D distance at the registered pose (inliers)
+  double median_offset_px = 0.0;  // 2-D distance at the registered pose (first pass's inliers)
   double rms_reprojection_px = 0.0;
-  std::vector<ScanCorrespondence> correspondences;  // the matches (inlier flags at the PnP pose)
+  // The last pass's matches (inlier flags at the PnP pose; render_px in the rendering at the
+  // previous pass's pose).
+  std::vector<ScanCorrespondence> correspondences;
   double ms = 0.0;
   // "ok", an outcome_name(), or "implausible".
   std::string reason() const;

@@ -1,11 +1,14 @@
 #include "registration/align/scan_match.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
+#include <tuple>
 
 #include "slam/core/error.hpp"
 
@@ -15,33 +18,58 @@ namespace features = slam::features;
 
 namespace {
 
-// The scan point behind a sub-pixel position of the rendering, bilinear over the 2x2 pixels
-// around it; nullopt when one of them is empty or they straddle a depth edge.
-std::optional<Eigen::Vector3d> point_at(const render::RenderResult& r, double x, double y,
+// The scan point seen at a sub-pixel position of the rendering. A splat is a flat square at its
+// point's depth and the nearest splat wins, so the splat centres behind the pixels are a few
+// millimetres off the pixel's ray (towards the camera on slanted surfaces). The splat centres of
+// the 5x5 pixels around the position do lie on the surface: a plane fitted to them, intersected
+// with the position's ray, gives the surface point the pixel sees. nullopt when the patch is
+// mostly empty or straddles a depth edge (relative spread above max_step).
+std::optional<Eigen::Vector3d> point_at(const render::RenderResult& r, const PinholeCamera& c,
+                                        const SE3& world_from_cam, double x, double y,
                                         double max_step) {
-  const int x0 = static_cast<int>(std::floor(x));
-  const int y0 = static_cast<int>(std::floor(y));
-  if (x0 < 0 || y0 < 0 || x0 + 1 >= r.depth.cols || y0 + 1 >= r.depth.rows) return std::nullopt;
+  const int xc = static_cast<int>(std::lround(x));
+  const int yc = static_cast<int>(std::lround(y));
+  constexpr int kHalf = 2;
+  if (xc - kHalf < 0 || yc - kHalf < 0 || xc + kHalf >= r.depth.cols || yc + kHalf >= r.depth.rows)
+    return std::nullopt;
+  std::vector<Eigen::Vector3d> pts;
   float lo = 1e30f, hi = 0.0f;
-  for (int dy = 0; dy < 2; ++dy) {
-    for (int dx = 0; dx < 2; ++dx) {
-      const float d = r.depth.at<float>(y0 + dy, x0 + dx);
-      if (!(d > 0.0f)) return std::nullopt;
+  for (int v = yc - kHalf; v <= yc + kHalf; ++v) {
+    for (int u = xc - kHalf; u <= xc + kHalf; ++u) {
+      const float d = r.depth.at<float>(v, u);
+      if (!(d > 0.0f)) continue;
       lo = std::min(lo, d);
       hi = std::max(hi, d);
+      const cv::Vec3f& q = r.points.at<cv::Vec3f>(v, u);
+      pts.emplace_back(q[0], q[1], q[2]);
     }
   }
-  if (hi > lo * (1.0 + max_step)) return std::nullopt;
-  const double fx = x - x0, fy = y - y0;
-  Eigen::Vector3d p = Eigen::Vector3d::Zero();
-  for (int dy = 0; dy < 2; ++dy) {
-    for (int dx = 0; dx < 2; ++dx) {
-      const cv::Vec3f& q = r.points.at<cv::Vec3f>(y0 + dy, x0 + dx);
-      const double w = (dx ? fx : 1.0 - fx) * (dy ? fy : 1.0 - fy);
-      p += w * Eigen::Vector3d(q[0], q[1], q[2]);
-    }
-  }
-  return p;
+  if (pts.size() < 12 || hi > lo * (1.0 + max_step)) return std::nullopt;
+  // Distinct splats only (a near splat covers several pixels).
+  std::sort(pts.begin(), pts.end(), [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    return std::tie(a.x(), a.y(), a.z()) < std::tie(b.x(), b.y(), b.z());
+  });
+  pts.erase(std::unique(pts.begin(), pts.end()), pts.end());
+  if (pts.size() < 3) return std::nullopt;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : pts)
+    mean += p;
+  mean /= static_cast<double>(pts.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : pts)
+    cov += (p - mean) * (p - mean).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  // A degenerate patch (collinear splats) has no plane: fall back to the mean.
+  if (eig.eigenvalues()(1) < 1e-3 * eig.eigenvalues()(2)) return mean;
+  const Eigen::Vector3d normal = eig.eigenvectors().col(0);
+  const Eigen::Vector3d origin = world_from_cam.translation();
+  const Eigen::Vector3d ray =
+      world_from_cam.so3() * Eigen::Vector3d((x - c.cx) / c.fx, (y - c.cy) / c.fy, 1.0);
+  const double denom = normal.dot(ray);
+  if (std::abs(denom) < 1e-6 * ray.norm()) return std::nullopt;  // grazing
+  const double t = normal.dot(mean - origin) / denom;
+  if (t <= 0.0) return std::nullopt;
+  return origin + t * ray;
 }
 
 SE3 pose_of(const cv::Mat& rvec, const cv::Mat& tvec) {
@@ -118,8 +146,9 @@ double pose_distance_m(const SE3& a, const SE3& b) {
 }
 
 ScanMatch match_to_rendering(const features::OrbFeatures& image,
-                             const render::RenderResult& rendering, const PinholeCamera& camera,
-                             features::OrbExtractor& extractor, const ScanMatchOptions& o) {
+                             const render::RenderResult& rendering, const SE3& rendering_pose,
+                             const PinholeCamera& camera, features::OrbExtractor& extractor,
+                             const ScanMatchOptions& o) {
   o.check();
   if (rendering.colour.cols != camera.width || rendering.colour.rows != camera.height)
     throw Error("the rendering's size differs from the camera's", {.field = "rendering"});
@@ -153,7 +182,8 @@ ScanMatch match_to_rendering(const features::OrbFeatures& image,
   for (std::size_t j = 0; j < rf.size(); ++j) {
     if (best_image[j] < 0) continue;
     const features::Keypoint& b = rf.keypoints[j];
-    const auto p = point_at(rendering, b.ux, b.uy, o.max_depth_step);
+    const auto p =
+        point_at(rendering, camera, rendering_pose.inverse(), b.ux, b.uy, o.max_depth_step);
     if (!p) continue;
     const features::Keypoint& a = image.keypoints[static_cast<std::size_t>(best_image[j])];
     out.matches.push_back(

@@ -11,9 +11,10 @@
 // store them), the rendering is made with that same ideal pinhole; world = the scan's frame
 // (metres); poses cam_from_world.
 //
-// Rendered pixels on a silhouette (the 2x2 neighbourhood of the feature mixes surfaces whose
-// depths differ by more than max_depth_step, relative) give no 3-D point: the point behind such a
-// feature belongs to the foreground or the background by chance.
+// The 3-D point of a rendered feature is where its pixel's ray meets the plane of the splats
+// around it (scan_match.cpp says why). Rendered features on a silhouette (the 5x5 neighbourhood
+// mixes surfaces whose depths differ by more than max_depth_step, relative) give no 3-D point:
+// the point behind such a feature belongs to the foreground or the background by chance.
 #include <vector>
 
 #include "registration/render/renderer.hpp"
@@ -29,7 +30,7 @@ struct ScanMatchOptions {
   int max_level_difference = 2;    // pyramid levels between the two features of a match
   int max_hamming = 70;            // of 256 bits
   double ratio = 0.9;              // best / second best distance within the radius
-  double max_depth_step = 0.05;    // relative depth spread of a usable rendered 2x2 patch
+  double max_depth_step = 0.05;    // relative depth spread of a usable rendered 5x5 patch
   double ransac_reprojection_px = 3.0;
   int ransac_iterations = 500;
   double ransac_confidence = 0.999;
@@ -74,11 +75,12 @@ struct ScanMatch {
 };
 
 // `rendering` must come from rendering the scan with `camera` (no distortion) at the estimated
-// pose. `extractor` is used for the rendering's features (not thread-safe: one per thread).
-// Throws coloc::Error for invalid options or when the rendering's size differs from the camera's.
+// pose `rendering_pose` (cam_from_world). `extractor` is used for the rendering's features (not
+// thread-safe: one per thread). Throws coloc::Error for invalid options or when the rendering's
+// size differs from the camera's.
 ScanMatch match_to_rendering(const slam::features::OrbFeatures& image,
-                             const render::RenderResult& rendering, const PinholeCamera& camera,
-                             slam::features::OrbExtractor& extractor,
+                             const render::RenderResult& rendering, const SE3& rendering_pose,
+                             const PinholeCamera& camera, slam::features::OrbExtractor& extractor,
                              const ScanMatchOptions& options = {});
 
 // Angle (degrees) and centre distance (metres) between two poses cam_from_world.
