@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 #include "e57io/error.hpp"
 #include "e57io/reader.hpp"
@@ -33,6 +34,7 @@ std::uint8_t to_byte(double v, double lo, double hi) {
 void ScanCloudOptions::check() const {
   if (!(voxel_size >= 0.0)) throw Error("must be >= 0 (metres)", {.field = "voxel_size"});
   if (!(splat_factor >= 0.5)) throw Error("must be >= 0.5", {.field = "splat_factor"});
+  if (!(range_splat_factor >= 0.0)) throw Error("must be >= 0", {.field = "range_splat_factor"});
   if (!(max_splat_pixels >= 1.0f)) throw Error("must be >= 1", {.field = "max_splat_pixels"});
   if (!(max_range >= 0.0)) throw Error("must be >= 0 (metres)", {.field = "max_range"});
 }
@@ -42,9 +44,18 @@ render::PointCloud voxel_downsample(const render::PointCloud& cloud, const ScanC
   render::PointCloud out;
   out.max_splat_pixels = o.max_splat_pixels;
   out.splat_size = static_cast<float>(std::max(o.voxel_size, 0.005) * o.splat_factor);
+  const bool spaced = !cloud.splat_sizes.empty() && o.range_splat_factor > 0.0;
+  const auto splat = [&](double spacing) {
+    return static_cast<float>(
+        std::max(static_cast<double>(out.splat_size), o.range_splat_factor * spacing));
+  };
   if (o.voxel_size <= 0.0) {
     out.points = cloud.points;
     out.colours = cloud.colours;
+    if (spaced) {
+      for (float sp : cloud.splat_sizes)
+        out.splat_sizes.push_back(splat(sp));
+    }
     return out;
   }
   const double inv = 1.0 / o.voxel_size;
@@ -54,20 +65,29 @@ render::PointCloud voxel_downsample(const render::PointCloud& cloud, const ScanC
   std::sort(keys.begin(), keys.end());
   for (std::size_t a = 0; a < keys.size();) {
     std::size_t b = a;
+    double finest = 1e30;
+    for (; b < keys.size() && keys[b].first == keys[a].first; ++b) {
+      if (spaced) finest = std::min(finest, static_cast<double>(cloud.splat_sizes[keys[b].second]));
+    }
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     Eigen::Vector3d rgb = Eigen::Vector3d::Zero();
-    for (; b < keys.size() && keys[b].first == keys[a].first; ++b) {
-      const std::uint32_t i = keys[b].second;
+    double spacing = 0.0;
+    double n = 0.0;
+    for (std::size_t k = a; k < b; ++k) {
+      const std::uint32_t i = keys[k].second;
+      if (spaced && cloud.splat_sizes[i] > 1.5 * finest) continue;
       sum += cloud.points[i].cast<double>();
       const auto& c = cloud.colours[i];
       rgb += Eigen::Vector3d(c[0], c[1], c[2]);
+      if (spaced) spacing += cloud.splat_sizes[i];
+      n += 1.0;
     }
-    const double n = static_cast<double>(b - a);
     out.points.push_back((sum / n).cast<float>());
     rgb /= n;
     out.colours.push_back({static_cast<std::uint8_t>(std::lround(rgb.x())),
                            static_cast<std::uint8_t>(std::lround(rgb.y())),
                            static_cast<std::uint8_t>(std::lround(rgb.z()))});
+    if (spaced) out.splat_sizes.push_back(splat(spacing / n));
     a = b;
   }
   return out;
@@ -94,6 +114,7 @@ render::PointCloud load_scan_cloud(
     const std::uint32_t intensity = e57::field_bit(e57::PointField::kIntensity);
     all.points.reserve(total);
     all.colours.reserve(total);
+    all.splat_sizes.reserve(total);
     for (std::size_t si = 0; si < reader.scans().size(); ++si) {
       const e57::Data3D& d = reader.scans()[si];
       if ((d.field_mask & xyz) != xyz) continue;
@@ -120,6 +141,8 @@ render::PointCloud load_scan_cloud(
       e57::IntensityLimits il{0, 1};
       if (d.intensity_limits) il = *d.intensity_limits;
       ++s.scans;
+      const double step =
+          std::sqrt(4.0 * std::numbers::pi / std::max(static_cast<double>(d.point_count), 1.0));
       e57::PointStream stream = reader.open_points(si, mask);
       e57::PointBuffer b;
       while (stream.read(b, 1 << 16) > 0) {
@@ -128,6 +151,7 @@ render::PointCloud load_scan_cloud(
           const Eigen::Vector3d local(b.cartesian_x[i], b.cartesian_y[i], b.cartesian_z[i]);
           if (o.max_range > 0.0 && local.norm() > o.max_range) continue;
           all.points.push_back((world_from_scan * local).cast<float>());
+          all.splat_sizes.push_back(static_cast<float>(std::max(local.norm() * step, 1e-4)));
           if (has_rgb) {
             all.colours.push_back({to_byte(b.color_red[i], cl.red_min, cl.red_max),
                                    to_byte(b.color_green[i], cl.green_min, cl.green_max),

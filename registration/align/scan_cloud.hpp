@@ -9,9 +9,15 @@
 // machines yet (not in scripts/install_deps.sh) and a sorted voxel key is a few lines, so it is
 // not pulled in for this alone. Deterministic: the same file and options give the same cloud.
 //
-// Splats: each point is drawn as a square of splat_factor * voxel_size metres (at least one
-// pixel), so neighbouring voxels overlap and the rendering has no holes; the renderer's depth
-// test keeps the nearest surface, so what is hidden in the photo is hidden in the rendering.
+// Splats: a scan samples its surroundings at a fixed angular step, so its points are farther
+// apart far from the station: a point's spacing is range * the scan's angular step, estimated
+// as sqrt(4 pi / points of the scan) (a full-sphere scan; a scan with a smaller field of view
+// gets larger splats, which only blurs). Each point is drawn as a square of
+// max(splat_factor * voxel_size, range_splat_factor * spacing) metres, so the rendering has no
+// holes; the renderer's depth test keeps the nearest surface, so what is hidden in the photo is
+// hidden in the rendering. Where stations overlap, a voxel keeps the points of the stations
+// that sampled it finest (spacing within 1.5x of the finest), so a far station's coarse points
+// do not blur a near one's.
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -21,8 +27,9 @@
 namespace coloc::registration::align {
 
 struct ScanCloudOptions {
-  double voxel_size = 0.01;   // metres; 0 keeps every point
-  double splat_factor = 1.6;  // splat side / voxel_size (>= 1 closes the surfaces)
+  double voxel_size = 0.01;         // metres; 0 keeps every point
+  double splat_factor = 1.6;        // splat side / voxel_size (>= 1 closes the surfaces)
+  double range_splat_factor = 1.5;  // splat side / the point's spacing (0: voxel size only)
   float max_splat_pixels = 24.0f;
   // Points farther than this from their scanner are dropped (metres; 0 = no limit): far points
   // are sparse and noisy, and a keyframe sees them better from another station.
@@ -45,8 +52,9 @@ render::PointCloud load_scan_cloud(
     ScanCloudStats* stats = nullptr,
     const std::function<void(std::uint64_t, std::uint64_t)>& progress = {});
 
-// The voxel-grid filter alone, on a cloud in memory (points with colours); returns the thinned
-// cloud with its splat size set as above.
+// The voxel-grid filter alone, on a cloud in memory (points with colours, and in splat_sizes,
+// when not empty, each point's spacing in metres); returns the thinned cloud with its splat
+// sizes set as above.
 render::PointCloud voxel_downsample(const render::PointCloud& cloud,
                                     const ScanCloudOptions& options);
 
