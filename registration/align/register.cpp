@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "registration/align/transform.hpp"
 #include "slam/core/error.hpp"
@@ -36,12 +38,10 @@ std::vector<int> kept_ids(const std::vector<int>& use, const std::vector<int>& r
 
 Json refine_json(const RefineReport& f) {
   Json per = Json::array();
-  std::size_t outcomes[6] = {0, 0, 0, 0, 0, 0};
-  std::size_t implausible = 0;
+  std::map<std::string, std::size_t> reasons;  // ok, implausible or the outcome that failed
   std::vector<double> offsets, corrections_m, corrections_deg;
   for (const KeyframeRefinement& k : f.keyframes) {
-    ++outcomes[static_cast<int>(k.outcome)];
-    if (k.implausible) ++implausible;
+    ++reasons[k.reason()];
     if (k.accepted) {
       offsets.push_back(k.median_offset_px);
       corrections_m.push_back(k.correction_m);
@@ -63,10 +63,9 @@ Json refine_json(const RefineReport& f) {
     std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
     return v[v.size() / 2];
   };
-  Json outcome_counts;
-  for (int i = 0; i < 6; ++i)
-    outcome_counts[outcome_name(static_cast<MatchOutcome>(i))] = outcomes[i];
-  outcome_counts["implausible"] = implausible;
+  Json outcome_counts = Json::object();
+  for (const auto& [reason, count] : reasons)
+    outcome_counts[reason] = count;
   Json j{{"keyframes", f.keyframes.size()},
          {"accepted", f.accepted},
          {"outcomes", outcome_counts},

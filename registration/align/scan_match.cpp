@@ -62,7 +62,7 @@ std::optional<Eigen::Vector3d> point_at(const render::RenderResult& r, const Pin
   // A degenerate patch (collinear splats) has no plane: fall back to the mean.
   if (eig.eigenvalues()(1) < 1e-3 * eig.eigenvalues()(2)) return mean;
   const Eigen::Vector3d normal = eig.eigenvectors().col(0);
-  const Eigen::Vector3d origin = world_from_cam.translation();
+  const Eigen::Vector3d& origin = world_from_cam.translation();
   const Eigen::Vector3d ray =
       world_from_cam.so3() * Eigen::Vector3d((x - c.cx) / c.fx, (y - c.cy) / c.fy, 1.0);
   const double denom = normal.dot(ray);
@@ -94,6 +94,107 @@ double median(std::vector<double> v) {
   const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
   std::nth_element(v.begin(), mid, v.end());
   return *mid;
+}
+
+// Guided matching: nearest descriptor within the radius, ratio test, then one image feature
+// per rendered feature (the closest); each match with the scan point behind its rendered feature.
+std::vector<ScanCorrespondence> guided_matches(const features::OrbFeatures& image,
+                                               const features::OrbFeatures& rf,
+                                               const render::RenderResult& rendering,
+                                               const SE3& rendering_pose,
+                                               const PinholeCamera& camera,
+                                               const ScanMatchOptions& o) {
+  std::vector<ScanCorrespondence> out;
+  const double r2 = o.search_radius_px * o.search_radius_px;
+  std::vector<int> best_image(rf.size(), -1), best_distance(rf.size(), 257);
+  for (std::size_t i = 0; i < image.size(); ++i) {
+    const features::Keypoint& a = image.keypoints[i];
+    features::NearestTwo nt;
+    for (std::size_t j = 0; j < rf.size(); ++j) {
+      const features::Keypoint& b = rf.keypoints[j];
+      const double dx = b.ux - a.ux, dy = b.uy - a.uy;
+      if (dx * dx + dy * dy > r2 || std::abs(a.level - b.level) > o.max_level_difference) continue;
+      nt.offer(features::hamming_distance(image.descriptors[i], rf.descriptors[j]), j);
+    }
+    if (nt.best > o.max_hamming || nt.best >= o.ratio * nt.second) continue;
+    if (nt.best < best_distance[nt.index]) {
+      best_distance[nt.index] = nt.best;
+      best_image[nt.index] = static_cast<int>(i);
+    }
+  }
+  for (std::size_t j = 0; j < rf.size(); ++j) {
+    if (best_image[j] < 0) continue;
+    const features::Keypoint& b = rf.keypoints[j];
+    const auto p =
+        point_at(rendering, camera, rendering_pose.inverse(), b.ux, b.uy, o.max_depth_step);
+    if (!p) continue;
+    const features::Keypoint& a = image.keypoints[static_cast<std::size_t>(best_image[j])];
+    out.push_back(
+        {Eigen::Vector2d(a.ux, a.uy), Eigen::Vector2d(b.ux, b.uy), *p, best_distance[j], false});
+  }
+  return out;
+}
+
+// EPnP + RANSAC on the matches, then LM on the inliers and the inlier set of the refined pose,
+// twice. Sets out.has_pose, cam_from_world and the inlier flags; false when RANSAC failed.
+bool solve_pose(ScanMatch& out, const PinholeCamera& camera, const ScanMatchOptions& o) {
+  std::vector<cv::Point3d> object;
+  std::vector<cv::Point2d> pixels;
+  for (const ScanCorrespondence& m : out.matches) {
+    object.emplace_back(m.world.x(), m.world.y(), m.world.z());
+    pixels.emplace_back(m.image_px.x(), m.image_px.y());
+  }
+  const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+  cv::Mat rvec, tvec;
+  std::vector<int> ransac_inliers;
+  const bool ok =
+      cv::solvePnPRansac(object, pixels, k, cv::noArray(), rvec, tvec, false, o.ransac_iterations,
+                         static_cast<float>(o.ransac_reprojection_px), o.ransac_confidence,
+                         ransac_inliers, cv::SOLVEPNP_EPNP);
+  if (!ok || ransac_inliers.size() < 4) return false;
+  std::vector<int> use = ransac_inliers;
+  for (int pass = 0; pass < 2; ++pass) {
+    std::vector<cv::Point3d> obj;
+    std::vector<cv::Point2d> pix;
+    for (int i : use) {
+      obj.push_back(object[static_cast<std::size_t>(i)]);
+      pix.push_back(pixels[static_cast<std::size_t>(i)]);
+    }
+    if (obj.size() < 4) break;
+    cv::solvePnPRefineLM(obj, pix, k, cv::noArray(), rvec, tvec);
+    const SE3 pose = pose_of(rvec, tvec);
+    use.clear();
+    for (std::size_t i = 0; i < out.matches.size(); ++i) {
+      if (reprojection_px(camera, pose, out.matches[i]) < o.inlier_px)
+        use.push_back(static_cast<int>(i));
+    }
+  }
+  out.has_pose = true;
+  out.cam_from_world = pose_of(rvec, tvec);
+  std::vector<double> offsets;
+  double sq = 0.0;
+  for (int i : use) {
+    ScanCorrespondence& m = out.matches[static_cast<std::size_t>(i)];
+    m.inlier = true;
+    offsets.push_back((m.image_px - m.render_px).norm());
+    const double e = reprojection_px(camera, out.cam_from_world, m);
+    sq += e * e;
+  }
+  out.inliers = use.size();
+  out.median_offset_px = median(offsets);
+  out.rms_reprojection_px = use.empty() ? 0.0 : std::sqrt(sq / static_cast<double>(use.size()));
+  return true;
+}
+
+void classify(ScanMatch& out, const ScanMatchOptions& o) {
+  if (out.inliers < static_cast<std::size_t>(o.min_inliers)) {
+    out.outcome = MatchOutcome::kTooFewInliers;
+  } else if (static_cast<double>(out.inliers) <
+             o.min_inlier_ratio * static_cast<double>(out.matches.size())) {
+    out.outcome = MatchOutcome::kLowInlierRatio;
+  } else {
+    out.outcome = MatchOutcome::kOk;
+  }
 }
 
 }  // namespace
@@ -160,97 +261,16 @@ ScanMatch match_to_rendering(const features::OrbFeatures& image,
   out.rendered_features = rf.size();
   if (rf.size() < static_cast<std::size_t>(o.min_inliers)) return out;
 
-  // Guided matching: nearest descriptor within the radius, ratio test, then one image feature
-  // per rendered feature (the closest).
-  const double r2 = o.search_radius_px * o.search_radius_px;
-  std::vector<int> best_image(rf.size(), -1), best_distance(rf.size(), 257);
-  for (std::size_t i = 0; i < image.size(); ++i) {
-    const features::Keypoint& a = image.keypoints[i];
-    features::NearestTwo nt;
-    for (std::size_t j = 0; j < rf.size(); ++j) {
-      const features::Keypoint& b = rf.keypoints[j];
-      const double dx = b.ux - a.ux, dy = b.uy - a.uy;
-      if (dx * dx + dy * dy > r2 || std::abs(a.level - b.level) > o.max_level_difference) continue;
-      nt.offer(features::hamming_distance(image.descriptors[i], rf.descriptors[j]), j);
-    }
-    if (nt.best > o.max_hamming || nt.best >= o.ratio * nt.second) continue;
-    if (nt.best < best_distance[nt.index]) {
-      best_distance[nt.index] = nt.best;
-      best_image[nt.index] = static_cast<int>(i);
-    }
-  }
-  for (std::size_t j = 0; j < rf.size(); ++j) {
-    if (best_image[j] < 0) continue;
-    const features::Keypoint& b = rf.keypoints[j];
-    const auto p =
-        point_at(rendering, camera, rendering_pose.inverse(), b.ux, b.uy, o.max_depth_step);
-    if (!p) continue;
-    const features::Keypoint& a = image.keypoints[static_cast<std::size_t>(best_image[j])];
-    out.matches.push_back(
-        {Eigen::Vector2d(a.ux, a.uy), Eigen::Vector2d(b.ux, b.uy), *p, best_distance[j], false});
-  }
+  out.matches = guided_matches(image, rf, rendering, rendering_pose, camera, o);
   if (out.matches.size() < static_cast<std::size_t>(o.min_inliers)) {
     out.outcome = MatchOutcome::kTooFewMatches;
     return out;
   }
-
-  std::vector<cv::Point3d> object;
-  std::vector<cv::Point2d> pixels;
-  for (const ScanCorrespondence& m : out.matches) {
-    object.emplace_back(m.world.x(), m.world.y(), m.world.z());
-    pixels.emplace_back(m.image_px.x(), m.image_px.y());
-  }
-  const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
-  cv::Mat rvec, tvec;
-  std::vector<int> ransac_inliers;
-  const bool ok =
-      cv::solvePnPRansac(object, pixels, k, cv::noArray(), rvec, tvec, false, o.ransac_iterations,
-                         static_cast<float>(o.ransac_reprojection_px), o.ransac_confidence,
-                         ransac_inliers, cv::SOLVEPNP_EPNP);
-  if (!ok || ransac_inliers.size() < 4) {
+  if (!solve_pose(out, camera, o)) {
     out.outcome = MatchOutcome::kPnpFailed;
     return out;
   }
-  // LM on the inliers, then the inlier set of the refined pose, twice.
-  std::vector<int> use = ransac_inliers;
-  for (int pass = 0; pass < 2; ++pass) {
-    std::vector<cv::Point3d> obj;
-    std::vector<cv::Point2d> pix;
-    for (int i : use) {
-      obj.push_back(object[static_cast<std::size_t>(i)]);
-      pix.push_back(pixels[static_cast<std::size_t>(i)]);
-    }
-    if (obj.size() < 4) break;
-    cv::solvePnPRefineLM(obj, pix, k, cv::noArray(), rvec, tvec);
-    const SE3 pose = pose_of(rvec, tvec);
-    use.clear();
-    for (std::size_t i = 0; i < out.matches.size(); ++i) {
-      if (reprojection_px(camera, pose, out.matches[i]) < o.inlier_px)
-        use.push_back(static_cast<int>(i));
-    }
-  }
-  out.has_pose = true;
-  out.cam_from_world = pose_of(rvec, tvec);
-  std::vector<double> offsets;
-  double sq = 0.0;
-  for (int i : use) {
-    ScanCorrespondence& m = out.matches[static_cast<std::size_t>(i)];
-    m.inlier = true;
-    offsets.push_back((m.image_px - m.render_px).norm());
-    const double e = reprojection_px(camera, out.cam_from_world, m);
-    sq += e * e;
-  }
-  out.inliers = use.size();
-  out.median_offset_px = median(offsets);
-  out.rms_reprojection_px = use.empty() ? 0.0 : std::sqrt(sq / static_cast<double>(use.size()));
-  if (out.inliers < static_cast<std::size_t>(o.min_inliers)) {
-    out.outcome = MatchOutcome::kTooFewInliers;
-  } else if (static_cast<double>(out.inliers) <
-             o.min_inlier_ratio * static_cast<double>(out.matches.size())) {
-    out.outcome = MatchOutcome::kLowInlierRatio;
-  } else {
-    out.outcome = MatchOutcome::kOk;
-  }
+  classify(out, o);
   return out;
 }
 
