@@ -93,6 +93,71 @@ render::PointCloud voxel_downsample(const render::PointCloud& cloud, const ScanC
   return out;
 }
 
+namespace {
+
+constexpr std::uint32_t kXyz = e57::field_bit(e57::PointField::kCartesianX) |
+                               e57::field_bit(e57::PointField::kCartesianY) |
+                               e57::field_bit(e57::PointField::kCartesianZ);
+constexpr std::uint32_t kRgb = e57::field_bit(e57::PointField::kColorRed) |
+                               e57::field_bit(e57::PointField::kColorGreen) |
+                               e57::field_bit(e57::PointField::kColorBlue);
+
+Eigen::Isometry3d world_from_scan_of(const e57::Data3D& d) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  if (d.pose) {
+    const e57::Pose& p = *d.pose;
+    t.linear() = Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z)
+                     .normalized()
+                     .toRotationMatrix();
+    t.translation() = Eigen::Vector3d(p.translation.x, p.translation.y, p.translation.z);
+  }
+  return t;
+}
+
+// Appends scan `si`'s valid points (file frame), colours and spacings (range * angular step).
+void read_scan(const e57::Reader& reader, std::size_t si, const ScanCloudOptions& o,
+               render::PointCloud& all, ScanCloudStats& s, std::uint64_t total,
+               const std::function<void(std::uint64_t, std::uint64_t)>& progress) {
+  const e57::Data3D& d = reader.scans()[si];
+  const std::uint32_t intensity = e57::field_bit(e57::PointField::kIntensity);
+  const std::uint32_t invalid = e57::field_bit(e57::PointField::kCartesianInvalidState);
+  const bool has_rgb = (d.field_mask & kRgb) == kRgb;
+  const bool has_i = !has_rgb && (d.field_mask & intensity) != 0;
+  const std::uint32_t mask =
+      kXyz | (has_rgb ? kRgb : 0u) | (has_i ? intensity : 0u) | (d.field_mask & invalid);
+  s.colour = s.colour || has_rgb;
+  const Eigen::Isometry3d world_from_scan = world_from_scan_of(d);
+  const e57::ColorLimits cl = d.color_limits.value_or(e57::ColorLimits{0, 255, 0, 255, 0, 255});
+  const e57::IntensityLimits il = d.intensity_limits.value_or(e57::IntensityLimits{0, 1});
+  const double step =
+      std::sqrt(4.0 * std::numbers::pi / std::max(static_cast<double>(d.point_count), 1.0));
+  e57::PointStream stream = reader.open_points(si, mask);
+  e57::PointBuffer b;
+  while (stream.read(b, 1 << 16) > 0) {
+    for (std::size_t i = 0; i < b.size; ++i) {
+      if (!b.cartesian_invalid_state.empty() && b.cartesian_invalid_state[i] != 0) continue;
+      const Eigen::Vector3d local(b.cartesian_x[i], b.cartesian_y[i], b.cartesian_z[i]);
+      if (o.max_range > 0.0 && local.norm() > o.max_range) continue;
+      all.points.push_back((world_from_scan * local).cast<float>());
+      all.splat_sizes.push_back(static_cast<float>(std::max(local.norm() * step, 1e-4)));
+      if (has_rgb) {
+        all.colours.push_back({to_byte(b.color_red[i], cl.red_min, cl.red_max),
+                               to_byte(b.color_green[i], cl.green_min, cl.green_max),
+                               to_byte(b.color_blue[i], cl.blue_min, cl.blue_max)});
+      } else if (has_i) {
+        const std::uint8_t g = to_byte(b.intensity[i], il.minimum, il.maximum);
+        all.colours.push_back({g, g, g});
+      } else {
+        all.colours.push_back({128, 128, 128});
+      }
+    }
+    s.points_read += b.size;
+    if (progress) progress(s.points_read, total);
+  }
+}
+
+}  // namespace
+
 render::PointCloud load_scan_cloud(
     const std::filesystem::path& path, const ScanCloudOptions& o, ScanCloudStats* stats,
     const std::function<void(std::uint64_t, std::uint64_t)>& progress) {
@@ -105,67 +170,13 @@ render::PointCloud load_scan_cloud(
     std::uint64_t total = 0;
     for (const e57::Data3D& d : reader.scans())
       total += d.point_count;
-    const std::uint32_t xyz = e57::field_bit(e57::PointField::kCartesianX) |
-                              e57::field_bit(e57::PointField::kCartesianY) |
-                              e57::field_bit(e57::PointField::kCartesianZ);
-    const std::uint32_t rgb = e57::field_bit(e57::PointField::kColorRed) |
-                              e57::field_bit(e57::PointField::kColorGreen) |
-                              e57::field_bit(e57::PointField::kColorBlue);
-    const std::uint32_t intensity = e57::field_bit(e57::PointField::kIntensity);
     all.points.reserve(total);
     all.colours.reserve(total);
     all.splat_sizes.reserve(total);
     for (std::size_t si = 0; si < reader.scans().size(); ++si) {
-      const e57::Data3D& d = reader.scans()[si];
-      if ((d.field_mask & xyz) != xyz) continue;
-      std::uint32_t mask = xyz;
-      const bool has_rgb = (d.field_mask & rgb) == rgb;
-      const bool has_i = !has_rgb && (d.field_mask & intensity) != 0;
-      if (has_rgb) mask |= rgb;
-      if (has_i) mask |= intensity;
-      const auto invalid = e57::field_bit(e57::PointField::kCartesianInvalidState);
-      if (d.field_mask & invalid) mask |= invalid;
-      s.colour = s.colour || has_rgb;
-      Eigen::Isometry3d world_from_scan = Eigen::Isometry3d::Identity();
-      if (d.pose) {
-        const e57::Pose& p = *d.pose;
-        world_from_scan.linear() =
-            Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z)
-                .normalized()
-                .toRotationMatrix();
-        world_from_scan.translation() =
-            Eigen::Vector3d(p.translation.x, p.translation.y, p.translation.z);
-      }
-      e57::ColorLimits cl{0, 255, 0, 255, 0, 255};
-      if (d.color_limits) cl = *d.color_limits;
-      e57::IntensityLimits il{0, 1};
-      if (d.intensity_limits) il = *d.intensity_limits;
+      if ((reader.scans()[si].field_mask & kXyz) != kXyz) continue;
       ++s.scans;
-      const double step =
-          std::sqrt(4.0 * std::numbers::pi / std::max(static_cast<double>(d.point_count), 1.0));
-      e57::PointStream stream = reader.open_points(si, mask);
-      e57::PointBuffer b;
-      while (stream.read(b, 1 << 16) > 0) {
-        for (std::size_t i = 0; i < b.size; ++i) {
-          if (!b.cartesian_invalid_state.empty() && b.cartesian_invalid_state[i] != 0) continue;
-          const Eigen::Vector3d local(b.cartesian_x[i], b.cartesian_y[i], b.cartesian_z[i]);
-          if (o.max_range > 0.0 && local.norm() > o.max_range) continue;
-          all.points.push_back((world_from_scan * local).cast<float>());
-          all.splat_sizes.push_back(static_cast<float>(std::max(local.norm() * step, 1e-4)));
-          if (has_rgb) {
-            all.colours.push_back({to_byte(b.color_red[i], cl.red_min, cl.red_max),
-                                   to_byte(b.color_green[i], cl.green_min, cl.green_max),
-                                   to_byte(b.color_blue[i], cl.blue_min, cl.blue_max)});
-          } else if (has_i) {
-            const std::uint8_t g = to_byte(b.intensity[i], il.minimum, il.maximum);
-            all.colours.push_back({g, g, g});
-          } else {
-            all.colours.push_back({128, 128, 128});
-          }
-        }
-        s.points_read += b.size;
-        if (progress) progress(s.points_read, total);
-      }
+      read_scan(reader, si, o, all, s, total, progress);
     }
   } catch (const e57::Error& e) {
     throw Error(std::string("cannot read the scan: ") + e.what(), {.file = path.string()});

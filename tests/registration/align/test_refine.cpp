@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
+#include "e57io/synthetic.hpp"
 #include "registration/align/refine.hpp"
 #include "registration/align/register.hpp"
 #include "registration/align/scan_cloud.hpp"
@@ -225,6 +226,29 @@ TEST(ScanCloud, VoxelGridAveragesEachVoxel) {
   EXPECT_FLOAT_EQ(d.splat_size, static_cast<float>(0.01 * o.splat_factor));
   o.voxel_size = -1.0;
   EXPECT_THROW(voxel_downsample(c, o), Error);
+}
+
+TEST(ScanCloud, ReadsAnE57FileWithColourAndRangeSplats) {
+  const std::filesystem::path file =
+      std::filesystem::path(::testing::TempDir()) / "scan_cloud_test.e57";
+  e57::write_synthetic_scan(file, 20000);
+  ScanCloudOptions o;
+  o.voxel_size = 0.0;  // keep every point
+  ScanCloudStats stats;
+  std::uint64_t last = 0;
+  const render::PointCloud c =
+      load_scan_cloud(file, o, &stats, [&](std::uint64_t done, std::uint64_t) { last = done; });
+  EXPECT_EQ(stats.scans, 1u);
+  EXPECT_EQ(stats.points_read, 20000u);
+  EXPECT_EQ(last, 20000u);
+  EXPECT_TRUE(stats.colour);
+  EXPECT_EQ(c.points.size(), 20000u);
+  ASSERT_EQ(c.splat_sizes.size(), c.points.size());
+  for (float v : c.splat_sizes)
+    EXPECT_GE(v, c.splat_size);
+  o.voxel_size = 0.01;  // the synthetic grid is 1 mm: fewer points after the voxel grid
+  EXPECT_LT(load_scan_cloud(file, o).points.size(), c.points.size());
+  std::filesystem::remove(file);
 }
 
 }  // namespace
