@@ -36,6 +36,7 @@ struct RegisterArgs {
   double voxel = 0.01;
   int threads = 2;
   int report_keyframes = 4;
+  std::string refine_mode = "fixed";
   std::string level = "markers";
   int min_markers = 3;
   double inlier_threshold = 0.35;
@@ -168,6 +169,7 @@ void register_verb(const RegisterArgs& a) {
   options.ba.marker_gate_px = a.marker_gate;
   options.ba.marker_weight = a.marker_weight;
   options.refine.threads = a.threads;
+  options.refine.hold_fixed = a.refine_mode == "fixed";
   align::ScanCloudOptions cloud_options;
   cloud_options.voxel_size = a.voxel;
   options.check();
@@ -279,6 +281,11 @@ void add_register_verb(CLI::App& app) {
   cmd.add_option("--report-keyframes", a->report_keyframes, "Keyframes drawn in the report")
       ->capture_default_str();
   cmd.add_option("--voxel", a->voxel, "Level pointcloud: voxel size of the scan's points (m)")
+      ->capture_default_str();
+  cmd.add_option("--refine-mode", a->refine_mode,
+                 "Level pointcloud: accepted keyframes held fixed at their PnP poses (the paper) "
+                 "or their scan matches as BA terms")
+      ->check(CLI::IsMember({"fixed", "terms"}))
       ->capture_default_str();
   cmd.add_option("--threads", a->threads, "Level pointcloud: keyframes matched in parallel")
       ->check(CLI::Range(1, 64))

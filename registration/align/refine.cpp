@@ -159,15 +159,22 @@ RefineReport refine_with_point_cloud(slam::map::Map& map, const render::PointClo
   report.keyframes = match_keyframes(map, cloud, ideal_camera(map, camera), o, progress);
   report.ms_match = watch.elapsed_ms();
   std::unordered_set<KeyframeId> fixed;
+  std::vector<ScanPointObservation> terms;
   for (const KeyframeRefinement& k : report.keyframes) {
     if (!k.accepted) continue;
-    map.keyframe(k.id)->frame.cam_from_world = k.pnp;
-    fixed.insert(k.id);
+    ++report.accepted;
+    if (o.hold_fixed || !o.bundle_adjust) {
+      map.keyframe(k.id)->frame.cam_from_world = k.pnp;
+      fixed.insert(k.id);
+    } else {
+      for (const ScanCorrespondence& c : k.correspondences) {
+        if (c.inlier) terms.push_back({k.id, c.image_px, c.world});
+      }
+    }
   }
-  report.accepted = fixed.size();
-  if (fixed.empty() || !o.bundle_adjust) return report;
+  if (report.accepted == 0 || !o.bundle_adjust) return report;
   watch.restart();
-  report.ba = marker_bundle_adjustment(map, scan, camera, use_ids, ba, fixed);
+  report.ba = marker_bundle_adjustment(map, scan, camera, use_ids, ba, fixed, terms);
   report.ms_ba = watch.elapsed_ms();
   return report;
 }

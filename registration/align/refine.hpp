@@ -33,6 +33,10 @@ struct RefineOptions {
   // Render-match-PnP passes per keyframe; each later pass renders at the previous PnP pose.
   int iterations = 2;
   bool bundle_adjust = true;  // false: only set the accepted poses
+  // How the accepted keyframes enter the BA: held fixed at their PnP poses (the paper), or
+  // (false) left free with their inlier matches as fixed-scan-point terms
+  // (MarkerBaOptions::scan_point_sigma_px), so one keyframe's PnP noise does not pin it.
+  bool hold_fixed = true;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
 };
