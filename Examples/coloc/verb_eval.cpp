@@ -168,6 +168,7 @@ void add_eval_verb(CLI::App& app) {
   rpe.callback([rpe_args] { run_rpe(*rpe_args); });
 
   add_frame_limit_verb(eval);
+  add_table2_verb(eval);
 }
 
 }  // namespace coloc::cli

@@ -5,16 +5,21 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <memory>
 
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/row_progress.hpp"
+#include "Examples/coloc/scan_figures.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "markers/marker_map.hpp"
 #include "registration/align/register.hpp"
+#include "registration/align/scan_cloud.hpp"
+#include "registration/render/renderer.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/mapdb/mapdb.hpp"
@@ -24,9 +29,14 @@ namespace {
 
 namespace fs = std::filesystem;
 namespace align = registration::align;
+namespace render = registration::render;
 
 struct RegisterArgs {
-  fs::path map, markers, out, scan, report, vocabulary;
+  fs::path map, markers, out, scan, report, vocabulary, sequence;
+  double voxel = 0.01;
+  int threads = 2;
+  int report_keyframes = 4;
+  std::string refine_mode = "fixed";
   std::string level = "markers";
   int min_markers = 3;
   double inlier_threshold = 0.35;
@@ -98,23 +108,83 @@ void print_text(const align::RegistrationResult& r, const fs::path& out, double 
                 << " px" << (m.rejected ? "  REJECTED" : "") << "\n";
     }
   }
+  if (r.refine) {
+    const auto& f = *r.refine;
+    std::map<std::string, int> reasons;
+    for (const auto& k : f.keyframes)
+      ++reasons[k.reason()];
+    std::cout << "  pointcloud: " << f.accepted << "/" << f.keyframes.size()
+              << " keyframes accepted (match " << f.ms_match << " ms, BA " << f.ms_ba << " ms):";
+    for (const auto& [reason, count] : reasons)
+      std::cout << " " << reason << " " << count;
+    std::cout << "\n";
+  }
   std::cout << "  load " << load_ms << " ms, save " << save_ms << " ms\n";
 }
 
-void register_verb(const RegisterArgs& a) {
-  if (a.level == "pointcloud") {
-    throw Error("level 'pointcloud' (refinement against the scan's points) is not available yet",
-                {.field = "--level"});
+// The paper's Figure 5 for a few accepted keyframes (evenly spread over them): the scan rendered
+// at the marker-registered pose with the matches drawn, and at the refined pose; blended with
+// the keyframe's image when --sequence gives it.
+void write_figures(const RegisterArgs& a, const align::RefineReport& f,
+                   const render::PointCloud& cloud, const slam::map::Map& map, const Camera& camera,
+                   const align::RefineOptions& options) {
+  std::vector<const align::KeyframeRefinement*> accepted;
+  for (const auto& k : f.keyframes) {
+    if (k.accepted) accepted.push_back(&k);
   }
+  if (accepted.empty() || a.report_keyframes <= 0) return;
+  const PinholeCamera ideal = align::ideal_camera(map, camera);
+  render::Renderer renderer(options.render);
+  renderer.set_point_cloud(cloud);
+  const std::size_t n = std::min<std::size_t>(accepted.size(), a.report_keyframes);
+  for (std::size_t i = 0; i < n; ++i) {
+    const align::KeyframeRefinement& k = *accepted[i * accepted.size() / n];
+    cv::Mat image;
+    if (!a.sequence.empty()) {
+      if (auto im = sequence_image(a.sequence, k.timestamp, camera, ideal)) image = *im;
+    }
+    const SE3& after = map.keyframe(k.id)->cam_from_world();
+    const std::string id = std::to_string(k.id.value());
+    char caption[160];
+    std::snprintf(caption, sizeof(caption), "keyframe %s markers: median %.1f px, %zu inliers",
+                  id.c_str(), k.median_offset_px, k.inliers);
+    write_png(a.report / ("keyframe_" + id + "_markers.png"),
+              scan_figure(renderer.render(ideal, k.registered, render::Layer::kPoints).colour,
+                          image, k.correspondences, caption));
+    std::snprintf(caption, sizeof(caption), "keyframe %s pointcloud: moved %.1f cm %.2f deg",
+                  id.c_str(), k.correction_m * 100.0, k.correction_deg);
+    write_png(a.report / ("keyframe_" + id + "_pointcloud.png"),
+              scan_figure(renderer.render(ideal, after, render::Layer::kPoints).colour, image, {},
+                          caption));
+  }
+}
+
+void register_verb(const RegisterArgs& a) {
+  if (a.level == "pointcloud" && a.scan.empty())
+    throw Error("level pointcloud needs the scan's points", {.field = "--scan"});
   align::RegisterOptions options;
   options.level = align::parse_level(a.level);
   options.rough.min_markers = a.min_markers;
   options.rough.inlier_threshold = a.inlier_threshold;
   options.ba.marker_gate_px = a.marker_gate;
   options.ba.marker_weight = a.marker_weight;
+  options.refine.threads = a.threads;
+  options.refine.hold_fixed = a.refine_mode == "fixed";
+  align::ScanCloudOptions cloud_options;
+  cloud_options.voxel_size = a.voxel;
   options.check();
+  cloud_options.check();
   check_writable(a.out);
   const markers::MarkerMap scan = markers::read_marker_map(a.markers);
+  render::PointCloud cloud;
+  align::ScanCloudStats cloud_stats;
+  if (options.level == align::Level::kPointcloud) {
+    RowProgress scan_progress("reading the scan", a.json);
+    cloud = align::load_scan_cloud(a.scan, cloud_options, &cloud_stats, scan_progress.callback());
+    scan_progress.finish();
+    spdlog::info("scan: {} points read, {} kept ({} m voxels), {:.0f} ms", cloud_stats.points_read,
+                 cloud_stats.points_kept, a.voxel, cloud_stats.ms);
+  }
 
   Stopwatch watch;
   const slam::bow::Vocabulary vocabulary = load_vocabulary(a.vocabulary);
@@ -131,12 +201,25 @@ void register_verb(const RegisterArgs& a) {
   const Camera camera = camera_of(loaded, a.map);
   spdlog::info("registering {} keyframes, {} points to {} scanned markers ({})",
                loaded.map.keyframe_count(), loaded.map.point_count(), scan.markers.size(), a.level);
-  const align::RegistrationResult r = align::register_map(loaded.map, scan, camera, options);
+  RowProgress refine_progress("refining keyframes", a.json);
+  const align::RegistrationResult r = align::register_map(
+      loaded.map, scan, camera, options, cloud.points.empty() ? nullptr : &cloud,
+      [&](std::size_t done, std::size_t total) { refine_progress.callback()(done, total); });
+  refine_progress.finish();
   if (r.ba && !r.ba->usable()) {
     throw CliFailure("fewer than two markers survived the bundle adjustment (rejected: " +
                      std::to_string(r.ba->rejected_ids().size()) + "); the map was not written");
   }
-  const std::string summary = align::registration_json(r);
+  std::string summary = align::registration_json(r);
+  if (r.refine) {
+    Json j = Json::parse(summary);
+    j["pointcloud"]["scan"] = {{"file", a.scan.string()},
+                               {"points_read", cloud_stats.points_read},
+                               {"points_kept", cloud_stats.points_kept},
+                               {"voxel_m", a.voxel},
+                               {"ms", cloud_stats.ms}};
+    summary = j.dump();
+  }
 
   slam::mapdb::MapMetadata metadata = loaded.metadata;
   metadata.frame_name = "scan";
@@ -158,6 +241,7 @@ void register_verb(const RegisterArgs& a) {
       if (!f) throw Error("cannot write the report", {.file = tmp.string()});
     }
     fs::rename(tmp, file);
+    if (r.refine) write_figures(a, *r.refine, cloud, loaded.map, camera, options.refine);
   }
   if (a.json) {
     Json j = Json::parse(summary);
@@ -183,12 +267,29 @@ void add_register_verb(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingFile);
   cmd.add_option("--out", a->out, "Registered map database to write")->required();
-  cmd.add_option("--level", a->level, "rough (markers' rigid fit) or markers (+ marker BA)")
+  cmd.add_option("--level", a->level,
+                 "rough (markers' rigid fit), markers (+ marker BA) or pointcloud (+ refinement)")
       ->check(CLI::IsMember({"rough", "markers", "pointcloud"}))
       ->capture_default_str();
   cmd.add_option("--scan", a->scan, "The scan (E57), for level pointcloud")
       ->check(CLI::ExistingFile);
-  cmd.add_option("--report", a->report, "Directory for the report (registration.json)");
+  cmd.add_option("--report", a->report,
+                 "Directory for the report (registration.json; level pointcloud: Figure 5 PNGs)");
+  cmd.add_option("--sequence", a->sequence,
+                 "The mapped sequence (TUM layout): keyframe images for the report's figures")
+      ->check(CLI::ExistingDirectory);
+  cmd.add_option("--report-keyframes", a->report_keyframes, "Keyframes drawn in the report")
+      ->capture_default_str();
+  cmd.add_option("--voxel", a->voxel, "Level pointcloud: voxel size of the scan's points (m)")
+      ->capture_default_str();
+  cmd.add_option("--refine-mode", a->refine_mode,
+                 "Level pointcloud: accepted keyframes held fixed at their PnP poses (the paper) "
+                 "or their scan matches as BA terms")
+      ->check(CLI::IsMember({"fixed", "terms"}))
+      ->capture_default_str();
+  cmd.add_option("--threads", a->threads, "Level pointcloud: keyframes matched in parallel")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
   cmd.add_option("--vocabulary", a->vocabulary, "BoW vocabulary the map was built with");
   cmd.add_option("--min-markers", a->min_markers, "Fewest consistent markers accepted")
       ->check(CLI::Range(2, 1000))

@@ -12,6 +12,8 @@ void add_demo_verb(CLI::App& app);
 void add_eval_verb(CLI::App& app);
 // `eval` is the `coloc eval` subcommand (sequence diagnostics next to ate/rpe).
 void add_frame_limit_verb(CLI::App& eval);
+// `coloc eval table2` (verb_eval_table2.cpp).
+void add_table2_verb(CLI::App& eval);
 void add_vocab_verb(CLI::App& app, CLI::App& bench);
 void add_map_verb(CLI::App& app, CLI::App& bench);
 // `coloc localize` and `coloc bench localize` (verb_localize.cpp).

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <unordered_map>
 
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
@@ -26,7 +27,14 @@ struct CornerObservation {
   Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  // undistorted
 };
 
+struct ScanPointTerm {
+  std::uint32_t pose = 0;
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  // undistorted
+  Eigen::Vector3d world = Eigen::Vector3d::Zero();  // fixed, scan frame
+};
+
 struct MarkerTerms {
+  std::vector<ScanPointTerm> scan_points;  // the refinement's 2-D/3-D matches (refine.hpp)
   std::vector<int> ids;
   std::vector<std::array<Eigen::Vector3d, 4>> corners;  // fixed, scan frame
   std::vector<std::size_t> keyframes;                   // per marker
@@ -124,6 +132,11 @@ int solve(const optim::BundleProblem& problem, State& s, const optim::Intrinsics
                                marker_inv_sigma),
           new ceres::HuberLoss(delta), pose_block(c.pose));
     }
+  }
+  const double scan_inv_sigma = 1.0 / o.scan_point_sigma_px;
+  for (const ScanPointTerm& t : markers.scan_points) {
+    cp.AddResidualBlock(new MarkerCornerCost(k, t.pixel, t.world, scan_inv_sigma),
+                        new ceres::HuberLoss(delta), pose_block(t.pose));
   }
   if (cp.NumResidualBlocks() == 0) return 0;
   ceres::Solver::Options so;
@@ -272,6 +285,8 @@ bool find_culprit(const optim::BundleProblem& problem, const State& initial,
 }  // namespace
 
 void MarkerBaOptions::check() const {
+  if (!(scan_point_sigma_px > 0.0))
+    throw Error("must be positive (pixels)", {.field = "scan_point_sigma_px"});
   if (iterations < 1) throw Error("must be >= 1", {.field = "iterations"});
   if (max_rounds < 1) throw Error("must be >= 1", {.field = "max_rounds"});
   if (!(huber_chi2 > 0.0)) throw Error("must be positive", {.field = "huber_chi2"});
@@ -322,7 +337,9 @@ bool MarkerCornerCost::Evaluate(double const* const* parameters, double* residua
 
 MarkerBaReport marker_bundle_adjustment(slam::map::Map& map, const ScanCorners& scan,
                                         const Camera& camera, const std::vector<int>& use_ids,
-                                        const MarkerBaOptions& o) {
+                                        const MarkerBaOptions& o,
+                                        const std::unordered_set<KeyframeId>& fixed_keyframes,
+                                        const std::vector<ScanPointObservation>& scan_points) {
   o.check();
   if (map.keyframe_count() < 2) {
     throw Error("the map has " + std::to_string(map.keyframe_count()) +
@@ -335,9 +352,20 @@ MarkerBaReport marker_bundle_adjustment(slam::map::Map& map, const ScanCorners& 
     all.push_back(id);
   std::sort(all.begin(), all.end());  // deterministic problem order
   slam::mapping::BaWindow w = slam::mapping::make_window(map, all);
-  for (auto& pose : w.problem.poses)
-    pose.fixed = false;  // the fixed marker corners hold the gauge
-  const MarkerTerms markers = marker_terms(map, w, scan, camera, use_ids);
+  for (std::size_t i = 0; i < w.problem.poses.size(); ++i) {
+    // The fixed marker corners hold the gauge; refined keyframes are held where PnP put them.
+    w.problem.poses[i].fixed = fixed_keyframes.contains(w.pose_ids[i]);
+  }
+  MarkerTerms markers = marker_terms(map, w, scan, camera, use_ids);
+  {
+    std::unordered_map<KeyframeId, std::uint32_t> pose_of_id;
+    for (std::size_t i = 0; i < w.pose_ids.size(); ++i)
+      pose_of_id.emplace(w.pose_ids[i], static_cast<std::uint32_t>(i));
+    for (const ScanPointObservation& p : scan_points) {
+      const auto it = pose_of_id.find(p.keyframe);
+      if (it != pose_of_id.end()) markers.scan_points.push_back({it->second, p.pixel, p.world});
+    }
+  }
   const optim::Intrinsics& k = w.intrinsics;
 
   const State initial = state_of(w.problem);

@@ -31,6 +31,7 @@
 
 #include <array>
 #include <map>
+#include <unordered_set>
 #include <vector>
 
 #include "slam/core/camera.hpp"
@@ -47,6 +48,9 @@ struct MarkerBaOptions {
   double chi2_mono = 5.991;
   double marker_sigma_px = 1.0;  // standard deviation of a detected marker corner (pixels)
   double marker_weight = 1.0;    // multiplies each marker corner's information (>= 0)
+  // Standard deviation of a scan-point observation (scan_points below; pixels): the 2-D/3-D
+  // matches against the scan rendering are noisier than a keypoint (splats, rendering).
+  double scan_point_sigma_px = 2.0;
   double marker_gate_px = 5.0;  // RMS corner reprojection (pixels) above which a marker is rejected
   int threads = 2;
   // Throws coloc::Error naming the first invalid field.
@@ -85,9 +89,22 @@ using ScanCorners = std::map<int, std::array<Eigen::Vector3d, 4>>;
 // to `use_ids` unless it is empty. Marker pixels are undistorted through `camera` (the intrinsics
 // must match the keyframes' geometry). Throws coloc::Error for invalid options or a map with
 // fewer than two keyframes.
+// A pixel of a keyframe matched to a FIXED scan point (the point-cloud refinement's matches).
+struct ScanPointObservation {
+  KeyframeId keyframe;
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  // undistorted
+  Eigen::Vector3d world = Eigen::Vector3d::Zero();  // scan frame, metres
+};
+
+// Keyframes in `fixed_keyframes` keep their poses (held constant in both terms: the point-cloud
+// refinement's accepted keyframes, refine.hpp); the others and every point move. `scan_points`
+// add one term each, as a marker corner's with sigma scan_point_sigma_px and the same Huber
+// kernel: the alternative to fixing poses that lets the matches of many keyframes average.
 MarkerBaReport marker_bundle_adjustment(slam::map::Map& map, const ScanCorners& scan,
                                         const Camera& camera, const std::vector<int>& use_ids = {},
-                                        const MarkerBaOptions& options = {});
+                                        const MarkerBaOptions& options = {},
+                                        const std::unordered_set<KeyframeId>& fixed_keyframes = {},
+                                        const std::vector<ScanPointObservation>& scan_points = {});
 
 // The marker term: residual = inv_sigma * (m_kj - Pi(C_k, M_j)) with M_j fixed; analytic
 // Jacobian in the pose manifold's lifted form (slam/optim/bundle_adjustment.hpp). Exposed for

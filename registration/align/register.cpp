@@ -1,7 +1,10 @@
 #include "registration/align/register.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "registration/align/transform.hpp"
 #include "slam/core/error.hpp"
@@ -24,29 +27,100 @@ Json sim3_json(const Sim3& t) {
               {"translation", {t.translation().x(), t.translation().y(), t.translation().z()}}};
 }
 
+// `use` without the markers the BA rejected: the refinement's BA does not bring them back.
+std::vector<int> kept_ids(const std::vector<int>& use, const std::vector<int>& rejected) {
+  std::vector<int> out;
+  for (int id : use) {
+    if (std::find(rejected.begin(), rejected.end(), id) == rejected.end()) out.push_back(id);
+  }
+  return out;
+}
+
+Json refine_json(const RefineReport& f) {
+  Json per = Json::array();
+  std::map<std::string, std::size_t> reasons;  // ok, implausible or the outcome that failed
+  std::vector<double> offsets, corrections_m, corrections_deg;
+  for (const KeyframeRefinement& k : f.keyframes) {
+    ++reasons[k.reason()];
+    if (k.accepted) {
+      offsets.push_back(k.median_offset_px);
+      corrections_m.push_back(k.correction_m);
+      corrections_deg.push_back(k.correction_deg);
+    }
+    per.push_back({{"id", k.id.value()},
+                   {"timestamp", k.timestamp},
+                   {"reason", k.reason()},
+                   {"accepted", k.accepted},
+                   {"matches", k.matches},
+                   {"inliers", k.inliers},
+                   {"correction_m", k.correction_m},
+                   {"correction_deg", k.correction_deg},
+                   {"median_offset_px", k.median_offset_px},
+                   {"rms_reprojection_px", k.rms_reprojection_px}});
+  }
+  const auto med = [](std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  Json outcome_counts = Json::object();
+  for (const auto& [reason, count] : reasons)
+    outcome_counts[reason] = count;
+  Json j{{"keyframes", f.keyframes.size()},
+         {"accepted", f.accepted},
+         {"outcomes", outcome_counts},
+         {"median_offset_px", med(offsets)},
+         {"median_correction_m", med(corrections_m)},
+         {"median_correction_deg", med(corrections_deg)},
+         {"ms_match", f.ms_match},
+         {"ms_ba", f.ms_ba}};
+  if (f.ba) {
+    j["ba"] = {{"marker_rms_px", {f.ba->initial_marker_rms_px, f.ba->final_marker_rms_px}},
+               {"point_rms_px", {f.ba->initial_point_rms_px, f.ba->final_point_rms_px}},
+               {"outliers", f.ba->outliers},
+               {"iterations", f.ba->iterations}};
+  }
+  j["per_keyframe"] = per;
+  return j;
+}
+
 }  // namespace
 
 const char* level_name(Level level) {
-  return level == Level::kRough ? "rough" : "markers";
+  switch (level) {
+    case Level::kRough:
+      return "rough";
+    case Level::kMarkers:
+      return "markers";
+    case Level::kPointcloud:
+      return "pointcloud";
+  }
+  return "unknown";
 }
 
 Level parse_level(const std::string& name) {
   if (name == "rough") return Level::kRough;
   if (name == "markers") return Level::kMarkers;
-  throw Error("unknown registration level '" + name + "' (rough or markers)", {.field = "level"});
+  if (name == "pointcloud") return Level::kPointcloud;
+  throw Error("unknown registration level '" + name + "' (rough, markers or pointcloud)",
+              {.field = "level"});
 }
 
 void RegisterOptions::check() const {
   corners.check();
   rough.check();
   ba.check();
+  refine.check();
   if (!(ba_max_rough_residual > 0.0))
     throw Error("must be positive (metres)", {.field = "ba_max_rough_residual"});
 }
 
 RegistrationResult register_map(slam::map::Map& map, const markers::MarkerMap& scan,
-                                const Camera& camera, const RegisterOptions& o) {
+                                const Camera& camera, const RegisterOptions& o,
+                                const render::PointCloud* cloud, const RefineProgress& progress) {
   o.check();
+  if (o.level == Level::kPointcloud && (cloud == nullptr || cloud->points.empty()))
+    throw Error("level pointcloud needs the scan's points", {.field = "cloud"});
   RegistrationResult r;
   r.level = o.level;
   Stopwatch watch;
@@ -69,6 +143,14 @@ RegistrationResult register_map(slam::map::Map& map, const markers::MarkerMap& s
     corners.emplace(id, scan.markers.at(id).corners);
   r.ba = marker_bundle_adjustment(map, corners, camera, use, o.ba);
   r.ms_ba = watch.elapsed_ms();
+  if (o.level != Level::kPointcloud || !r.ba->usable()) return r;
+
+  watch.restart();
+  r.refine = refine_with_point_cloud(
+      map, *cloud, corners, camera,
+      r.ba->rejected_ids().empty() ? use : kept_ids(use, r.ba->rejected_ids()), o.ba, o.refine,
+      progress);
+  r.ms_refine = watch.elapsed_ms();
   return r;
 }
 
@@ -119,6 +201,7 @@ std::string registration_json(const RegistrationResult& r) {
     ba["markers"] = per;
     j["markers"] = ba;
   }
+  if (r.refine) j["pointcloud"] = refine_json(*r.refine);
   return j.dump();
 }
 

@@ -1,6 +1,7 @@
 #include "registration/render/renderer.hpp"
 
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
@@ -48,10 +49,10 @@ void main() {
 constexpr const char* kPointVertex = R"(#version 330
 layout(location = 0) in vec3 a_pos;
 layout(location = 1) in vec3 a_colour;
+layout(location = 2) in float a_splat;
 uniform mat4 u_cam_from_world;
 uniform mat4 u_proj;
 uniform float u_focal;
-uniform float u_splat;
 uniform float u_max_pixels;
 flat out vec3 v_pcam;
 flat out vec3 v_colour;
@@ -62,7 +63,7 @@ void main() {
   v_colour = a_colour;
   v_index = gl_VertexID;
   gl_Position = u_proj * pc;
-  gl_PointSize = clamp(u_focal * u_splat / max(pc.z, 1e-6), 1.0, u_max_pixels);
+  gl_PointSize = clamp(u_focal * a_splat / max(pc.z, 1e-6), 1.0, u_max_pixels);
 })";
 
 constexpr const char* kPointFragment = R"(#version 330
@@ -260,6 +261,7 @@ struct Renderer::Impl {
     struct Vertex {
       float x, y, z;
       std::uint8_t r, g, b, pad;
+      float size;
     };
     std::vector<Vertex> vertices(c.points.size());
     for (std::size_t i = 0; i < c.points.size(); ++i) {
@@ -269,7 +271,8 @@ struct Renderer::Impl {
                      c.colours[i][0],
                      c.colours[i][1],
                      c.colours[i][2],
-                     0};
+                     0,
+                     c.splat_sizes.empty() ? c.splat_size : c.splat_sizes[i]};
     }
     glGenVertexArrays(1, &cloud.vao);
     glBindVertexArray(cloud.vao);
@@ -282,6 +285,9 @@ struct Renderer::Impl {
     glEnableVertexAttribArray(1);
     glVertexAttribPointer(1, 3, GL_UNSIGNED_BYTE, GL_TRUE, sizeof(Vertex),
                           reinterpret_cast<const void*>(3 * sizeof(float)));
+    glEnableVertexAttribArray(2);
+    glVertexAttribPointer(2, 1, GL_FLOAT, GL_FALSE, sizeof(Vertex),
+                          reinterpret_cast<const void*>(offsetof(Vertex, size)));
     glBindVertexArray(0);
     cloud.count = static_cast<GLsizei>(c.points.size());
     cloud.splat_size = c.splat_size;
@@ -359,7 +365,6 @@ struct Renderer::Impl {
       set_common_uniforms(point_program, pose, proj);
       glUniform1f(glGetUniformLocation(point_program, "u_focal"),
                   static_cast<float>(std::max(ideal.fx, ideal.fy)));
-      glUniform1f(glGetUniformLocation(point_program, "u_splat"), cloud.splat_size);
       glUniform1f(glGetUniformLocation(point_program, "u_max_pixels"), cloud.max_pixels);
       glBindVertexArray(cloud.vao);
       glDrawArrays(GL_POINTS, 0, cloud.count);

@@ -50,6 +50,11 @@ void PointCloud::check() const {
   }
   if (!(splat_size > 0.0f))
     throw Error("point cloud: splat_size must be > 0", {.field = "splat_size"});
+  if (!splat_sizes.empty() && splat_sizes.size() != points.size())
+    throw Error("point cloud: splat_sizes and points differ in size", {.field = "splat_sizes"});
+  for (float v : splat_sizes) {
+    if (!(v > 0.0f)) throw Error("point cloud: a splat size is not > 0", {.field = "splat_sizes"});
+  }
   if (!(max_splat_pixels >= 1.0f)) {
     throw Error("point cloud: max_splat_pixels must be >= 1", {.field = "max_splat_pixels"});
   }

@@ -33,7 +33,10 @@ struct PointCloud {
   std::vector<Eigen::Vector3f> points;               // world frame, metres
   std::vector<std::array<std::uint8_t, 3>> colours;  // RGB, one per point
   float splat_size = 0.01f;                          // metres
-  float max_splat_pixels = 64.0f;                    // upper bound on the on-screen size
+  // Per-point splat side (metres), one per point, overriding splat_size when not empty: a scan
+  // is sparser far from its station, so its splats must grow with the range there.
+  std::vector<float> splat_sizes;
+  float max_splat_pixels = 64.0f;  // upper bound on the on-screen size
 
   void check() const;
 };

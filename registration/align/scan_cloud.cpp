@@ -1,0 +1,195 @@
+#include "registration/align/scan_cloud.hpp"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "e57io/error.hpp"
+#include "e57io/reader.hpp"
+#include "slam/core/error.hpp"
+#include "slam/core/timing.hpp"
+
+namespace coloc::registration::align {
+
+namespace {
+
+// 21 bits per axis: +-1M voxels, 10 km at 1 cm.
+std::uint64_t voxel_key(const Eigen::Vector3f& p, double inv_size) {
+  constexpr std::int64_t kHalf = 1 << 20;
+  const auto axis = [&](float v) {
+    const auto i = static_cast<std::int64_t>(std::floor(static_cast<double>(v) * inv_size));
+    return static_cast<std::uint64_t>(std::clamp<std::int64_t>(i + kHalf, 0, 2 * kHalf - 1));
+  };
+  return (axis(p.x()) << 42) | (axis(p.y()) << 21) | axis(p.z());
+}
+
+std::uint8_t to_byte(double v, double lo, double hi) {
+  const double t = hi > lo ? (v - lo) / (hi - lo) : v / 255.0;
+  return static_cast<std::uint8_t>(std::lround(std::clamp(t, 0.0, 1.0) * 255.0));
+}
+
+}  // namespace
+
+void ScanCloudOptions::check() const {
+  if (!(voxel_size >= 0.0)) throw Error("must be >= 0 (metres)", {.field = "voxel_size"});
+  if (!(splat_factor >= 0.5)) throw Error("must be >= 0.5", {.field = "splat_factor"});
+  if (!(range_splat_factor >= 0.0)) throw Error("must be >= 0", {.field = "range_splat_factor"});
+  if (!(max_splat_pixels >= 1.0f)) throw Error("must be >= 1", {.field = "max_splat_pixels"});
+  if (!(max_range >= 0.0)) throw Error("must be >= 0 (metres)", {.field = "max_range"});
+}
+
+render::PointCloud voxel_downsample(const render::PointCloud& cloud, const ScanCloudOptions& o) {
+  o.check();
+  render::PointCloud out;
+  out.max_splat_pixels = o.max_splat_pixels;
+  out.splat_size = static_cast<float>(std::max(o.voxel_size, 0.005) * o.splat_factor);
+  const bool spaced = !cloud.splat_sizes.empty() && o.range_splat_factor > 0.0;
+  const auto splat = [&](double spacing) {
+    return static_cast<float>(
+        std::max(static_cast<double>(out.splat_size), o.range_splat_factor * spacing));
+  };
+  if (o.voxel_size <= 0.0) {
+    out.points = cloud.points;
+    out.colours = cloud.colours;
+    if (spaced) {
+      for (float sp : cloud.splat_sizes)
+        out.splat_sizes.push_back(splat(sp));
+    }
+    return out;
+  }
+  const double inv = 1.0 / o.voxel_size;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keys(cloud.points.size());
+  for (std::size_t i = 0; i < cloud.points.size(); ++i)
+    keys[i] = {voxel_key(cloud.points[i], inv), static_cast<std::uint32_t>(i)};
+  std::sort(keys.begin(), keys.end());
+  for (std::size_t a = 0; a < keys.size();) {
+    std::size_t b = a;
+    double finest = 1e30;
+    for (; b < keys.size() && keys[b].first == keys[a].first; ++b) {
+      if (spaced) finest = std::min(finest, static_cast<double>(cloud.splat_sizes[keys[b].second]));
+    }
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    Eigen::Vector3d rgb = Eigen::Vector3d::Zero();
+    double spacing = 0.0;
+    double n = 0.0;
+    for (std::size_t k = a; k < b; ++k) {
+      const std::uint32_t i = keys[k].second;
+      if (spaced && cloud.splat_sizes[i] > 1.5 * finest) continue;
+      sum += cloud.points[i].cast<double>();
+      const auto& c = cloud.colours[i];
+      rgb += Eigen::Vector3d(c[0], c[1], c[2]);
+      if (spaced) spacing += cloud.splat_sizes[i];
+      n += 1.0;
+    }
+    out.points.push_back((sum / n).cast<float>());
+    rgb /= n;
+    out.colours.push_back({static_cast<std::uint8_t>(std::lround(rgb.x())),
+                           static_cast<std::uint8_t>(std::lround(rgb.y())),
+                           static_cast<std::uint8_t>(std::lround(rgb.z()))});
+    if (spaced) out.splat_sizes.push_back(splat(spacing / n));
+    a = b;
+  }
+  return out;
+}
+
+namespace {
+
+constexpr std::uint32_t kXyz = e57::field_bit(e57::PointField::kCartesianX) |
+                               e57::field_bit(e57::PointField::kCartesianY) |
+                               e57::field_bit(e57::PointField::kCartesianZ);
+constexpr std::uint32_t kRgb = e57::field_bit(e57::PointField::kColorRed) |
+                               e57::field_bit(e57::PointField::kColorGreen) |
+                               e57::field_bit(e57::PointField::kColorBlue);
+
+Eigen::Isometry3d world_from_scan_of(const e57::Data3D& d) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  if (d.pose) {
+    const e57::Pose& p = *d.pose;
+    t.linear() = Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z)
+                     .normalized()
+                     .toRotationMatrix();
+    t.translation() = Eigen::Vector3d(p.translation.x, p.translation.y, p.translation.z);
+  }
+  return t;
+}
+
+// Appends scan `si`'s valid points (file frame), colours and spacings (range * angular step).
+void read_scan(const e57::Reader& reader, std::size_t si, const ScanCloudOptions& o,
+               render::PointCloud& all, ScanCloudStats& s, std::uint64_t total,
+               const std::function<void(std::uint64_t, std::uint64_t)>& progress) {
+  const e57::Data3D& d = reader.scans()[si];
+  const std::uint32_t intensity = e57::field_bit(e57::PointField::kIntensity);
+  const std::uint32_t invalid = e57::field_bit(e57::PointField::kCartesianInvalidState);
+  const bool has_rgb = (d.field_mask & kRgb) == kRgb;
+  const bool has_i = !has_rgb && (d.field_mask & intensity) != 0;
+  const std::uint32_t mask =
+      kXyz | (has_rgb ? kRgb : 0u) | (has_i ? intensity : 0u) | (d.field_mask & invalid);
+  s.colour = s.colour || has_rgb;
+  const Eigen::Isometry3d world_from_scan = world_from_scan_of(d);
+  const e57::ColorLimits cl = d.color_limits.value_or(e57::ColorLimits{0, 255, 0, 255, 0, 255});
+  const e57::IntensityLimits il = d.intensity_limits.value_or(e57::IntensityLimits{0, 1});
+  const double step =
+      std::sqrt(4.0 * std::numbers::pi / std::max(static_cast<double>(d.point_count), 1.0));
+  e57::PointStream stream = reader.open_points(si, mask);
+  e57::PointBuffer b;
+  while (stream.read(b, 1 << 16) > 0) {
+    for (std::size_t i = 0; i < b.size; ++i) {
+      if (!b.cartesian_invalid_state.empty() && b.cartesian_invalid_state[i] != 0) continue;
+      const Eigen::Vector3d local(b.cartesian_x[i], b.cartesian_y[i], b.cartesian_z[i]);
+      if (o.max_range > 0.0 && local.norm() > o.max_range) continue;
+      all.points.push_back((world_from_scan * local).cast<float>());
+      all.splat_sizes.push_back(static_cast<float>(std::max(local.norm() * step, 1e-4)));
+      if (has_rgb) {
+        all.colours.push_back({to_byte(b.color_red[i], cl.red_min, cl.red_max),
+                               to_byte(b.color_green[i], cl.green_min, cl.green_max),
+                               to_byte(b.color_blue[i], cl.blue_min, cl.blue_max)});
+      } else if (has_i) {
+        const std::uint8_t g = to_byte(b.intensity[i], il.minimum, il.maximum);
+        all.colours.push_back({g, g, g});
+      } else {
+        all.colours.push_back({128, 128, 128});
+      }
+    }
+    s.points_read += b.size;
+    if (progress) progress(s.points_read, total);
+  }
+}
+
+}  // namespace
+
+render::PointCloud load_scan_cloud(
+    const std::filesystem::path& path, const ScanCloudOptions& o, ScanCloudStats* stats,
+    const std::function<void(std::uint64_t, std::uint64_t)>& progress) {
+  o.check();
+  Stopwatch watch;
+  ScanCloudStats s;
+  render::PointCloud all;
+  try {
+    const e57::Reader reader(path);
+    std::uint64_t total = 0;
+    for (const e57::Data3D& d : reader.scans())
+      total += d.point_count;
+    all.points.reserve(total);
+    all.colours.reserve(total);
+    all.splat_sizes.reserve(total);
+    for (std::size_t si = 0; si < reader.scans().size(); ++si) {
+      if ((reader.scans()[si].field_mask & kXyz) != kXyz) continue;
+      ++s.scans;
+      read_scan(reader, si, o, all, s, total, progress);
+    }
+  } catch (const e57::Error& e) {
+    throw Error(std::string("cannot read the scan: ") + e.what(), {.file = path.string()});
+  }
+  if (s.scans == 0)
+    throw Error("no scan with cartesian coordinates", {.file = path.string(), .field = "data3D"});
+  if (all.points.empty())
+    throw Error("the scan holds no valid point", {.file = path.string(), .field = "data3D"});
+  render::PointCloud out = voxel_downsample(all, o);
+  s.points_kept = out.points.size();
+  s.ms = watch.elapsed_ms();
+  if (stats) *stats = s;
+  return out;
+}
+
+}  // namespace coloc::registration::align
