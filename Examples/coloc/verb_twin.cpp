@@ -28,6 +28,7 @@ struct TwinArgs {
   int supersample = 1;
   bool no_scan = false;
   bool motion_blur = false;
+  double depth_noise = 1.0;  // scales the D455 disparity noise (0: exact depth)
   bool json = false;
   int dictionary = 0;
   double marker_size = 0.1675;
@@ -40,6 +41,7 @@ void run_generate(const TwinArgs& a) {
   o.max_duration = a.seconds;
   o.supersample = a.supersample;
   o.motion_blur = a.motion_blur;
+  o.depth.disparity_sigma *= a.depth_noise;
   o.write_scan = !a.no_scan;
   o.quiet = a.json;
   o.dictionary = a.dictionary;
@@ -194,6 +196,10 @@ void add_twin_verb(CLI::App& app, CLI::App& bench) {
       ->capture_default_str();
   gen->add_flag("--no-scan", args->no_scan, "Skip the laser scan");
   gen->add_flag("--motion-blur", args->motion_blur, "Average 3 renders over the exposure");
+  gen->add_option("--depth-noise", args->depth_noise,
+                  "Scale of the depth camera's disparity noise (1: D455-like, 0: exact depth; "
+                  "dropouts and quantization stay)")
+      ->check(CLI::Range(0.0, 10.0));
   gen->add_flag("--json", args->json, "Machine-readable summary on stdout");
   gen->callback([args] { run_generate(*args); });
 
