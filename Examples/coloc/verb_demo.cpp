@@ -163,8 +163,7 @@ void demo_twin(const DemoArgs& a, const std::filesystem::path& out, int& step) {
   const std::string map_db = (out / "twin_map.db").string();
   step_header(++step, "RGB-D SLAM on the first half of the twin's walk, saved as a map file");
   run_verb({"map", "--sequence", sequence, "--vocabulary", vocabulary, "--frames", ":" + half,
-            "--trajectory", (out / "twin_trajectory_first_half.txt").string(), "--save",
-            first_db});
+            "--trajectory", (out / "twin_trajectory_first_half.txt").string(), "--save", first_db});
   step_header(++step, "The saved map reloaded and continued with the second half");
   run_verb({"map", "--sequence", sequence, "--vocabulary", vocabulary, "--frames", half + ":",
             "--load", first_db, "--trajectory", (out / "twin_trajectory.txt").string(),
