@@ -36,7 +36,7 @@ struct RegisterArgs {
   double voxel = 0.01;
   int threads = 2;
   int report_keyframes = 4;
-  std::string refine_mode = "fixed";
+  std::string refine_mode = "terms";
   std::string level = "markers";
   int min_markers = 3;
   double inlier_threshold = 0.35;
