@@ -204,6 +204,7 @@ void table2_verb(const Table2Args& a) {
   scan_progress.finish();
   const slam::bow::Vocabulary vocabulary = load_vocabulary(a.vocabulary);
   std::vector<LevelResult> rows;
+  rows.reserve(levels.size());
   for (const auto& [level, file] : levels)
     rows.push_back(evaluate(level, file, cloud, vocabulary, truth, a));
   if (!a.json) {

@@ -36,7 +36,7 @@ struct RegisterArgs {
   double voxel = 0.01;
   int threads = 2;
   int report_keyframes = 4;
-  std::string refine_mode = "fixed";
+  std::string refine_mode = "terms";
   std::string level = "markers";
   int min_markers = 3;
   double inlier_threshold = 0.35;
@@ -159,9 +159,7 @@ void write_figures(const RegisterArgs& a, const align::RefineReport& f,
   }
 }
 
-void register_verb(const RegisterArgs& a) {
-  if (a.level == "pointcloud" && a.scan.empty())
-    throw Error("level pointcloud needs the scan's points", {.field = "--scan"});
+align::RegisterOptions options_of(const RegisterArgs& a) {
   align::RegisterOptions options;
   options.level = align::parse_level(a.level);
   options.rough.min_markers = a.min_markers;
@@ -170,9 +168,29 @@ void register_verb(const RegisterArgs& a) {
   options.ba.marker_weight = a.marker_weight;
   options.refine.threads = a.threads;
   options.refine.hold_fixed = a.refine_mode == "fixed";
+  options.check();
+  return options;
+}
+
+// registration.json in the report directory (temporary file renamed over it).
+void write_report_json(const fs::path& dir, const std::string& summary) {
+  fs::create_directories(dir);
+  const fs::path file = dir / "registration.json";
+  const fs::path tmp = dir / ("registration.json.tmp-" + std::to_string(::getpid()));
+  {
+    std::ofstream f(tmp);
+    f << Json::parse(summary).dump(2) << "\n";
+    if (!f) throw Error("cannot write the report", {.file = tmp.string()});
+  }
+  fs::rename(tmp, file);
+}
+
+void register_verb(const RegisterArgs& a) {
+  if (a.level == "pointcloud" && a.scan.empty())
+    throw Error("level pointcloud needs the scan's points", {.field = "--scan"});
+  const align::RegisterOptions options = options_of(a);
   align::ScanCloudOptions cloud_options;
   cloud_options.voxel_size = a.voxel;
-  options.check();
   cloud_options.check();
   check_writable(a.out);
   const markers::MarkerMap scan = markers::read_marker_map(a.markers);
@@ -232,15 +250,7 @@ void register_verb(const RegisterArgs& a) {
   const double save_ms = watch.elapsed_ms();
 
   if (!a.report.empty()) {
-    fs::create_directories(a.report);
-    const fs::path file = a.report / "registration.json";
-    const fs::path tmp = a.report / ("registration.json.tmp-" + std::to_string(::getpid()));
-    {
-      std::ofstream f(tmp);
-      f << Json::parse(summary).dump(2) << "\n";
-      if (!f) throw Error("cannot write the report", {.file = tmp.string()});
-    }
-    fs::rename(tmp, file);
+    write_report_json(a.report, summary);
     if (r.refine) write_figures(a, *r.refine, cloud, loaded.map, camera, options.refine);
   }
   if (a.json) {
