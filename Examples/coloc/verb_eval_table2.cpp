@@ -10,8 +10,6 @@
 
 #include <spdlog/spdlog.h>
 
-#include <algorithm>
-#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <map>
@@ -49,27 +47,16 @@ struct Stats {
   std::size_t n = 0;
 };
 
-Stats stats_of(std::vector<double> v) {
+// The paper's columns: mean, population std, P50, P90 (numpy's interpolated quantiles).
+Stats stats_of(const std::vector<double>& v) {
   Stats s;
   s.n = v.size();
   if (v.empty()) return s;
-  std::sort(v.begin(), v.end());
-  double sum = 0.0;
-  for (double x : v)
-    sum += x;
-  s.mean = sum / static_cast<double>(v.size());
-  double sq = 0.0;
-  for (double x : v)
-    sq += (x - s.mean) * (x - s.mean);
-  s.std = std::sqrt(sq / static_cast<double>(v.size()));
-  const auto pct = [&](double p) {
-    const double pos = p * static_cast<double>(v.size() - 1);
-    const auto lo = static_cast<std::size_t>(std::floor(pos));
-    const std::size_t hi = std::min(lo + 1, v.size() - 1);
-    return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
-  };
-  s.p50 = pct(0.5);
-  s.p90 = pct(0.9);
+  const SampleStats summary = summarize(v);
+  s.mean = summary.mean;
+  s.std = summary.stddev;
+  s.p50 = summary.median;
+  s.p90 = quantile(v, 0.9);
   return s;
 }
 
@@ -86,21 +73,6 @@ struct LevelResult {
   double ms = 0.0;
 };
 
-Camera camera_of(const slam::mapdb::LoadedMap& loaded, const fs::path& file) {
-  if (loaded.metadata.camera) return *loaded.metadata.camera;
-  if (loaded.geometries.empty())
-    throw Error("the map has no camera", {.file = file.string(), .field = "cameras"});
-  const auto& g = *loaded.geometries.front();
-  PinholeCamera c;
-  c.fx = g.fx;
-  c.fy = g.fy;
-  c.cx = g.cx;
-  c.cy = g.cy;
-  c.width = static_cast<int>(g.max_x);
-  c.height = static_cast<int>(g.max_y);
-  return c;
-}
-
 LevelResult evaluate(const std::string& level, const fs::path& file,
                      const render::PointCloud& cloud, const slam::bow::Vocabulary& vocabulary,
                      const Trajectory& truth, const Table2Args& a) {
@@ -115,7 +87,7 @@ LevelResult evaluate(const std::string& level, const fs::path& file,
                     "', not the scan's: register it first (coloc register)",
                 {.file = file.string(), .field = "metadata.frame_name"});
   }
-  const Camera camera = camera_of(loaded, file);
+  const Camera camera = slam::mapdb::camera_of(loaded, file);
   align::RefineOptions o;
   o.threads = a.threads;
   RowProgress progress("table2 " + level, a.json);

@@ -22,6 +22,7 @@
 #include "registration/render/renderer.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
+#include "slam/mapdb/atomic_file.hpp"
 #include "slam/mapdb/mapdb.hpp"
 
 namespace coloc::cli {
@@ -44,40 +45,6 @@ struct RegisterArgs {
   double marker_weight = 1.0;
   bool json = false;
 };
-
-// Fails before any work when `out` cannot be created: a probe file next to it is written and
-// removed (the map itself is later written to a temporary file and renamed over `out`).
-void check_writable(const fs::path& out) {
-  const fs::path dir = out.has_parent_path() ? out.parent_path() : fs::path(".");
-  if (!fs::is_directory(dir))
-    throw Error("the output's directory does not exist", {.file = out.string(), .field = "--out"});
-  if (fs::is_directory(out))
-    throw Error("the output is a directory", {.file = out.string(), .field = "--out"});
-  const fs::path probe = dir / (out.filename().string() + ".probe-" + std::to_string(::getpid()));
-  {
-    std::ofstream f(probe);
-    if (!f)
-      throw Error("cannot write next to the output", {.file = out.string(), .field = "--out"});
-  }
-  fs::remove(probe);
-}
-
-// The camera the marker pixels are undistorted with: the map's own model, else a pinhole with
-// the keyframes' intrinsics (maps saved before the camera was stored).
-Camera camera_of(const slam::mapdb::LoadedMap& loaded, const fs::path& file) {
-  if (loaded.metadata.camera) return *loaded.metadata.camera;
-  if (loaded.geometries.empty())
-    throw Error("the map has no camera", {.file = file.string(), .field = "cameras"});
-  const auto& g = *loaded.geometries.front();
-  PinholeCamera c;
-  c.fx = g.fx;
-  c.fy = g.fy;
-  c.cx = g.cx;
-  c.cy = g.cy;
-  c.width = static_cast<int>(g.max_x);
-  c.height = static_cast<int>(g.max_y);
-  return c;
-}
 
 void print_text(const align::RegistrationResult& r, const fs::path& out, double load_ms,
                 double save_ms) {
@@ -192,7 +159,9 @@ void register_verb(const RegisterArgs& a) {
   align::ScanCloudOptions cloud_options;
   cloud_options.voxel_size = a.voxel;
   cloud_options.check();
-  check_writable(a.out);
+  // An unwritable output is an error before any work (the map is written later under a
+  // temporary name and renamed).
+  { const slam::mapdb::AtomicFile probe(a.out); }
   const markers::MarkerMap scan = markers::read_marker_map(a.markers);
   render::PointCloud cloud;
   align::ScanCloudStats cloud_stats;
@@ -216,7 +185,7 @@ void register_verb(const RegisterArgs& a) {
                     "'; register the map `coloc map` saved",
                 {.file = a.map.string(), .field = "metadata.frame_name"});
   }
-  const Camera camera = camera_of(loaded, a.map);
+  const Camera camera = slam::mapdb::camera_of(loaded, a.map);
   spdlog::info("registering {} keyframes, {} points to {} scanned markers ({})",
                loaded.map.keyframe_count(), loaded.map.point_count(), scan.markers.size(), a.level);
   RowProgress refine_progress("refining keyframes", a.json);

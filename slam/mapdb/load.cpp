@@ -493,4 +493,19 @@ VerifyReport verify_map(const fs::path& path, const bow::Vocabulary* vocabulary,
   return report;
 }
 
+Camera camera_of(const LoadedMap& map, const std::filesystem::path& file) {
+  if (map.metadata.camera) return *map.metadata.camera;
+  if (map.geometries.empty())
+    throw Error("the map has no camera", {.file = file.string(), .field = "cameras"});
+  const frame::FrameGeometry& g = *map.geometries.front();
+  PinholeCamera c;
+  c.fx = g.fx;
+  c.fy = g.fy;
+  c.cx = g.cx;
+  c.cy = g.cy;
+  c.width = static_cast<int>(g.max_x);
+  c.height = static_cast<int>(g.max_y);
+  return c;
+}
+
 }  // namespace coloc::slam::mapdb

@@ -127,6 +127,11 @@ struct LoadedMap {
   std::vector<std::shared_ptr<const frame::FrameGeometry>> geometries;
 };
 
+// The camera model a loaded map's keyframes came from: the metadata's, else (maps saved before
+// the model was stored) a pinhole with the keyframes' intrinsics. Throws coloc::Error naming
+// `file` when the map has no camera at all.
+Camera camera_of(const LoadedMap& map, const std::filesystem::path& file);
+
 // Throws coloc::Error naming the file and table/row for a missing, truncated or damaged file, a
 // missing table, a newer schema, a map made with another vocabulary, or any broken reference.
 LoadedMap load_map(const std::filesystem::path& path, const bow::Vocabulary& vocabulary,
