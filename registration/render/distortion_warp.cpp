@@ -72,6 +72,43 @@ PinholeCamera DistortionWarp::prepare(const PinholeCamera& camera) {
   return ideal_;
 }
 
+bool DistortionWarp::interpolate(const RenderResult& ideal, int u, int v, float& depth,
+                                 cv::Vec3f& point) const {
+  // Inverse depth is affine in the image over a plane, so perspective-correct bilinear
+  // interpolation is exact there. Nearest sampling instead puts the depth of a ray up to half a
+  // pixel away on the pixel: on a wall seen at a grazing angle that is centimetres, the same
+  // for every frame at that pixel, and SLAM on the twin inherited it as a bent map.
+  const float iu = map_x_.at<float>(v, u);
+  const float iv = map_y_.at<float>(v, u);
+  const int i0 = static_cast<int>(std::floor(iu));
+  const int j0 = static_cast<int>(std::floor(iv));
+  if (i0 < 0 || j0 < 0 || i0 + 1 >= ideal_.width || j0 + 1 >= ideal_.height) return false;
+  const float a = iu - static_cast<float>(i0);
+  const float b = iv - static_cast<float>(j0);
+  const float w[4] = {(1 - a) * (1 - b), a * (1 - b), (1 - a) * b, a * b};
+  const int di[4] = {0, 1, 0, 1};
+  const int dj[4] = {0, 0, 1, 1};
+  float inv[4];
+  for (int k = 0; k < 4; ++k) {
+    const float z = ideal.depth.at<float>(j0 + dj[k], i0 + di[k]);
+    if (!(z > 0.0f)) return false;
+    inv[k] = 1.0f / z;
+  }
+  // Four samples on one plane have zero cross difference of inverse depth; across an edge
+  // they do not, and the nearest sample is the honest answer there.
+  const float mean_inv = 0.25f * (inv[0] + inv[1] + inv[2] + inv[3]);
+  if (std::abs(inv[0] + inv[3] - inv[1] - inv[2]) > kPlanarTolerance * mean_inv) return false;
+  float inv_z = 0.0f;
+  cv::Vec3f p(0.0f, 0.0f, 0.0f);
+  for (int k = 0; k < 4; ++k) {
+    inv_z += w[k] * inv[k];
+    p += (w[k] * inv[k]) * ideal.points.at<cv::Vec3f>(j0 + dj[k], i0 + di[k]);
+  }
+  depth = 1.0f / inv_z;
+  point = p * depth;
+  return true;
+}
+
 RenderResult DistortionWarp::apply(const RenderResult& ideal) const {
   RenderResult r;
   cv::remap(ideal.colour, r.colour, map_x_, map_y_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
@@ -88,9 +125,14 @@ RenderResult DistortionWarp::apply(const RenderResult& ideal) const {
     for (int u = 0; u < w; ++u) {
       const int k = nearest_[static_cast<std::size_t>(v) * w + u];
       if (k < 0) continue;
+      r.index.at<int>(v, u) = index[k];
+      // Splats (index >= 0) are discs, not surfaces: only their own centre point is honest.
+      if (index[k] < 0 &&
+          interpolate(ideal, u, v, r.depth.at<float>(v, u), r.points.at<cv::Vec3f>(v, u))) {
+        continue;
+      }
       r.depth.at<float>(v, u) = depth[k];
       r.points.at<cv::Vec3f>(v, u) = points[k];
-      r.index.at<int>(v, u) = index[k];
     }
   }
   return r;

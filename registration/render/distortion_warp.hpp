@@ -18,6 +18,14 @@ class DistortionWarp {
   RenderResult apply(const RenderResult& ideal) const;
 
  private:
+  // Relative cross difference of the four samples' inverse depths below which they are taken
+  // as one plane (float rounding on a plane stays far below it).
+  static constexpr float kPlanarTolerance = 1e-4f;
+  // Depth and world point of distorted pixel (u, v) interpolated on the ideal image's surface;
+  // false where the four neighbours are not one plane (an edge) or not all hit.
+  bool interpolate(const RenderResult& ideal, int u, int v, float& depth,
+                   cv::Vec3f& point) const;
+
   PinholeCamera camera_;
   PinholeCamera ideal_;
   cv::Mat map_x_, map_y_;     // CV_32F, ideal-image coordinates of each distorted pixel
