@@ -14,14 +14,14 @@ namespace coloc::registration::align {
 
 namespace {
 
-KeyframeRefinement refine_one(const slam::map::Keyframe& kf, render::Renderer& renderer,
+KeyframeRefinement refine_one(const MatchView& view, render::Renderer& renderer,
                               slam::features::OrbExtractor& extractor, const PinholeCamera& camera,
                               const RefineOptions& o) {
   Stopwatch watch;
   KeyframeRefinement r;
-  r.id = kf.id;
-  r.timestamp = kf.frame.timestamp;
-  r.registered = kf.cam_from_world();
+  r.id = view.id;
+  r.timestamp = view.timestamp;
+  r.registered = view.cam_from_world;
   // Render, match, PnP; then again from the PnP pose: the rendering then looks almost like the
   // image, so the features of both sit on the same texture spots (the first pass's pose carries
   // the view-dependent shifts of features seen from a few centimetres and a degree away).
@@ -31,7 +31,7 @@ KeyframeRefinement refine_one(const slam::map::Keyframe& kf, render::Renderer& r
   for (int it = 0; it < o.iterations; ++it) {
     const render::RenderResult rendering = renderer.render(camera, pose, render::Layer::kPoints);
     ScanMatch next =
-        match_to_rendering(kf.frame.features, rendering, pose, camera, extractor, o.match);
+        match_to_rendering(*view.features, rendering, pose, camera, extractor, o.match);
     if (it == 0) {
       first_offset = next.median_offset_px;
     } else if (!next.ok()) {
@@ -94,26 +94,17 @@ PinholeCamera ideal_camera(const slam::map::Map& map, const Camera& camera) {
   return c;
 }
 
-std::vector<KeyframeRefinement> match_keyframes(const slam::map::Map& map,
-                                                const render::PointCloud& cloud,
-                                                const PinholeCamera& camera, const RefineOptions& o,
-                                                const RefineProgress& progress,
-                                                const std::vector<KeyframeId>& only) {
+std::vector<KeyframeRefinement> match_views(const std::vector<MatchView>& views,
+                                            const render::PointCloud& cloud,
+                                            const PinholeCamera& camera, const RefineOptions& o,
+                                            const RefineProgress& progress) {
   o.check();
   cloud.check();
   if (cloud.points.empty()) throw Error("the scan's point cloud is empty", {.field = "cloud"});
-  std::vector<KeyframeId> ids = only;
-  if (ids.empty()) {
-    for (const auto& [id, kf] : map.keyframes())
-      ids.push_back(id);
+  for (const MatchView& v : views) {
+    if (v.features == nullptr) throw Error("a view has no features", {.field = "views"});
   }
-  std::sort(ids.begin(), ids.end());
-  for (KeyframeId id : ids) {
-    if (!map.keyframe(id))
-      throw Error("no keyframe " + std::to_string(id.value()) + " in the map",
-                  {.field = "keyframes"});
-  }
-  std::vector<KeyframeRefinement> out(ids.size());
+  std::vector<KeyframeRefinement> out(views.size());
   std::atomic<std::size_t> next{0};
   std::mutex progress_mutex;
   std::size_t done = 0;
@@ -124,20 +115,20 @@ std::vector<KeyframeRefinement> match_keyframes(const slam::map::Map& map,
       render::Renderer renderer(o.render);  // this thread's own GL context
       renderer.set_point_cloud(cloud);
       slam::features::OrbExtractor extractor(o.match.orb);
-      for (std::size_t i = next++; i < ids.size(); i = next++) {
-        out[i] = refine_one(*map.keyframe(ids[i]), renderer, extractor, camera, o);
+      for (std::size_t i = next++; i < views.size(); i = next++) {
+        out[i] = refine_one(views[i], renderer, extractor, camera, o);
         if (progress) {
           const std::lock_guard lock(progress_mutex);
-          progress(++done, ids.size());
+          progress(++done, views.size());
         }
       }
     } catch (...) {
       const std::lock_guard lock(failure_mutex);
       if (!failure) failure = std::current_exception();
-      next = ids.size();  // the others stop at their next keyframe
+      next = views.size();  // the others stop at their next view
     }
   };
-  const int n = std::min<int>(o.threads, static_cast<int>(std::max<std::size_t>(ids.size(), 1)));
+  const int n = std::min<int>(o.threads, static_cast<int>(std::max<std::size_t>(views.size(), 1)));
   std::vector<std::thread> workers;
   for (int t = 1; t < n; ++t)
     workers.emplace_back(work);
@@ -146,6 +137,29 @@ std::vector<KeyframeRefinement> match_keyframes(const slam::map::Map& map,
     t.join();
   if (failure) std::rethrow_exception(failure);
   return out;
+}
+
+std::vector<KeyframeRefinement> match_keyframes(const slam::map::Map& map,
+                                                const render::PointCloud& cloud,
+                                                const PinholeCamera& camera, const RefineOptions& o,
+                                                const RefineProgress& progress,
+                                                const std::vector<KeyframeId>& only) {
+  std::vector<KeyframeId> ids = only;
+  if (ids.empty()) {
+    for (const auto& [id, kf] : map.keyframes())
+      ids.push_back(id);
+  }
+  std::sort(ids.begin(), ids.end());
+  std::vector<MatchView> views;
+  views.reserve(ids.size());
+  for (KeyframeId id : ids) {
+    const slam::map::Keyframe* kf = map.keyframe(id);
+    if (kf == nullptr)
+      throw Error("no keyframe " + std::to_string(id.value()) + " in the map",
+                  {.field = "keyframes"});
+    views.push_back({id, kf->frame.timestamp, &kf->frame.features, kf->cam_from_world()});
+  }
+  return match_views(views, cloud, camera, o, progress);
 }
 
 RefineReport refine_with_point_cloud(slam::map::Map& map, const render::PointCloud& cloud,

@@ -80,6 +80,24 @@ using RefineProgress = std::function<void(std::size_t done, std::size_t total)>;
 // the map's frame geometry, the size of `camera`.
 PinholeCamera ideal_camera(const slam::map::Map& map, const Camera& camera);
 
+// One image to match against the scan: a keyframe's, or a frame localized in the map (the
+// evaluation's test walk). `features` are undistorted (the ideal pinhole) and must outlive the
+// call.
+struct MatchView {
+  KeyframeId id;  // invalid for a frame that is not a keyframe
+  double timestamp = 0.0;
+  const slam::features::OrbFeatures* features = nullptr;
+  SE3 cam_from_world;  // the estimated pose the scan is rendered at
+};
+
+// Matches each view against `cloud` (results in the views' order). Throws coloc::Error for
+// invalid options, an empty cloud or a view without features.
+std::vector<KeyframeRefinement> match_views(const std::vector<MatchView>& views,
+                                            const render::PointCloud& cloud,
+                                            const PinholeCamera& camera,
+                                            const RefineOptions& options = {},
+                                            const RefineProgress& progress = {});
+
 // Matches every keyframe (or those in `only`, when not empty) against `cloud`; the map is not
 // changed. Throws coloc::Error for invalid options, an empty map or cloud.
 std::vector<KeyframeRefinement> match_keyframes(const slam::map::Map& map,

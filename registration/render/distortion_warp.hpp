@@ -23,8 +23,7 @@ class DistortionWarp {
   static constexpr float kPlanarTolerance = 1e-4f;
   // Depth and world point of distorted pixel (u, v) interpolated on the ideal image's surface;
   // false where the four neighbours are not one plane (an edge) or not all hit.
-  bool interpolate(const RenderResult& ideal, int u, int v, float& depth,
-                   cv::Vec3f& point) const;
+  bool interpolate(const RenderResult& ideal, int u, int v, float& depth, cv::Vec3f& point) const;
 
   PinholeCamera camera_;
   PinholeCamera ideal_;

@@ -1,0 +1,75 @@
+#include "Examples/coloc/table2_walk.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <opencv2/imgproc.hpp>
+#include <optional>
+
+#include "Examples/coloc/slam_inputs.hpp"
+#include "slam/core/error.hpp"
+#include "slam/core/progress.hpp"
+#include "slam/localize/localizer.hpp"
+
+namespace coloc::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using slam::localize::LocalizationState;
+
+// The grey image tracking extracts from (Camera.RGB decides the channel weights), so the
+// sampled frames' features are the ones the localizer saw.
+cv::Mat to_grey(const cv::Mat& image, bool rgb) {
+  if (image.channels() == 1) return image;
+  cv::Mat grey;
+  cv::cvtColor(image, grey, rgb ? cv::COLOR_RGB2GRAY : cv::COLOR_BGR2GRAY);
+  return grey;
+}
+
+}  // namespace
+
+LocalizedWalk localize_walk(const fs::path& map_path, const slam::bow::Vocabulary& vocabulary,
+                            const WalkOptions& o) {
+  if (o.every == 0) throw Error("must be >= 1", {.field = "--every"});
+  const auto map = slam::localize::load_localization_map(map_path, vocabulary);
+  const settings::Settings settings = o.config.empty()
+                                          ? slam::localize::settings_saved_in(*map, map_path)
+                                          : settings::load_settings(o.config);
+  const auto sequence = open_sequence_for(o.sequence, settings);
+  const slam::localize::LocalizerOptions options = slam::localize::options_from_settings(settings);
+  slam::localize::Localizer localizer(*map, vocabulary, settings, options);
+  slam::features::OrbExtractor extractor(options.extractor);
+  LocalizedWalk walk;
+  walk.frames = sequence->size();
+  std::vector<SE3> sampled_poses;
+  std::vector<double> sampled_times;
+  Progress progress("localizing the test walk", sequence->size(), o.quiet);
+  for (std::size_t i = 0; i < sequence->size(); ++i) {
+    progress.set(i + 1);
+    std::optional<dataset::Frame> frame;
+    try {
+      frame = sequence->frame(i);
+    } catch (const Error& e) {
+      spdlog::warn("frame {} skipped: {}", i, e.what());
+      ++walk.skipped;
+      continue;
+    }
+    const auto r = localizer.localize(frame->color, frame->depth, frame->timestamp);
+    if (r.state == LocalizationState::kLost) continue;
+    walk.trajectory.push_back({r.timestamp, r.world_from_cam});
+    if (walk.localized++ % o.every != 0) continue;
+    walk.features.push_back(
+        extractor.extract(to_grey(frame->color, settings.rgb_order), &settings.camera));
+    sampled_poses.push_back(r.world_from_cam.inverse());
+    sampled_times.push_back(r.timestamp);
+  }
+  progress.finish();
+  if (walk.localized == 0)
+    throw Error("no frame of the test walk localized in the map",
+                {.file = o.sequence.string(), .field = "--sequence"});
+  // Views are built once `features` stops growing (they point into it).
+  for (std::size_t k = 0; k < walk.features.size(); ++k)
+    walk.views.push_back({KeyframeId{}, sampled_times[k], &walk.features[k], sampled_poses[k]});
+  return walk;
+}
+
+}  // namespace coloc::cli
