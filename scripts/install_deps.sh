@@ -10,6 +10,7 @@ packages=(
   libceres-dev libsuitesparse-dev
   libosmesa6-dev
   libsqlite3-dev sqlite3
+  libpcl-dev
   liblo-dev liblo-tools
   libspdlog-dev libcli11-dev libpugixml-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev

@@ -169,8 +169,9 @@ void register_verb(const RegisterArgs& a) {
     RowProgress scan_progress("reading the scan", a.json);
     cloud = align::load_scan_cloud(a.scan, cloud_options, &cloud_stats, scan_progress.callback());
     scan_progress.finish();
-    spdlog::info("scan: {} points read, {} kept ({} m voxels), {:.0f} ms", cloud_stats.points_read,
-                 cloud_stats.points_kept, a.voxel, cloud_stats.ms);
+    spdlog::info("scan: {} points read, {} kept ({} m voxels, {} stray removed), {:.0f} ms",
+                 cloud_stats.points_read, cloud_stats.points_kept, a.voxel,
+                 cloud_stats.points_stray, cloud_stats.ms);
   }
 
   Stopwatch watch;
@@ -203,6 +204,7 @@ void register_verb(const RegisterArgs& a) {
     j["pointcloud"]["scan"] = {{"file", a.scan.string()},
                                {"points_read", cloud_stats.points_read},
                                {"points_kept", cloud_stats.points_kept},
+                               {"points_stray", cloud_stats.points_stray},
                                {"voxel_m", a.voxel},
                                {"ms", cloud_stats.ms}};
     summary = j.dump();

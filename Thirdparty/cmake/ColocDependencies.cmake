@@ -21,6 +21,13 @@ coloc_require_package(nlohmann_json nlohmann-json3-dev 3.10)
 coloc_require_package(pugixml libpugixml-dev)
 coloc_require_package(SQLite3 libsqlite3-dev)
 coloc_require_package(Threads libc6-dev)
+# PCL's config gives variables, not targets: one interface target carries them (SYSTEM, so its
+# headers' warnings are not ours).
+coloc_require_package(PCL libpcl-dev 1.12 COMPONENTS common kdtree)
+add_library(coloc_pcl INTERFACE)
+target_include_directories(coloc_pcl SYSTEM INTERFACE ${PCL_INCLUDE_DIRS})
+target_link_libraries(coloc_pcl INTERFACE ${PCL_LIBRARIES})
+add_library(coloc::pcl ALIAS coloc_pcl)
 
 # liblo and OSMesa ship only pkg-config files on Debian.
 pkg_check_modules(LIBLO IMPORTED_TARGET liblo>=0.31)

@@ -37,6 +37,7 @@ void ScanCloudOptions::check() const {
   if (!(range_splat_factor >= 0.0)) throw Error("must be >= 0", {.field = "range_splat_factor"});
   if (!(max_splat_pixels >= 1.0f)) throw Error("must be >= 1", {.field = "max_splat_pixels"});
   if (!(max_range >= 0.0)) throw Error("must be >= 0 (metres)", {.field = "max_range"});
+  stray.check();
 }
 
 render::PointCloud voxel_downsample(const render::PointCloud& cloud, const ScanCloudOptions& o) {
@@ -186,6 +187,7 @@ render::PointCloud load_scan_cloud(
   if (all.points.empty())
     throw Error("the scan holds no valid point", {.file = path.string(), .field = "data3D"});
   render::PointCloud out = voxel_downsample(all, o);
+  s.points_stray = remove_stray_points(out, o.stray);
   s.points_kept = out.points.size();
   s.ms = watch.elapsed_ms();
   if (stats) *stats = s;

@@ -5,9 +5,10 @@
 // renders in a fraction of a second while its surfaces stay closed.
 //
 // Downsampling: one point per occupied voxel of side `voxel_size` (metres), at the mean
-// position and colour of the voxel's points. This is PCL's VoxelGrid filter; PCL is not on our
-// machines yet (not in scripts/install_deps.sh) and a sorted voxel key is a few lines, so it is
-// not pulled in for this alone. Deterministic: the same file and options give the same cloud.
+// position and colour of the voxel's points, as PCL's VoxelGrid does, but over the points of the
+// stations that sampled the voxel finest only (below), which VoxelGrid cannot express; so this
+// is our own sorted voxel key. Deterministic: the same file and options give the same cloud.
+// Then stray points are removed (scan_outliers.hpp, PCL's k-d tree).
 //
 // Splats: a scan samples its surroundings at a fixed angular step, so its points are farther
 // apart far from the station: a point's spacing is range * the scan's angular step, estimated
@@ -22,6 +23,7 @@
 #include <filesystem>
 #include <functional>
 
+#include "registration/align/scan_outliers.hpp"
 #include "registration/render/scene.hpp"
 
 namespace coloc::registration::align {
@@ -34,13 +36,15 @@ struct ScanCloudOptions {
   // Points farther than this from their scanner are dropped (metres; 0 = no limit): far points
   // are sparse and noisy, and a keyframe sees them better from another station.
   double max_range = 0.0;
+  StrayPointOptions stray;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
 };
 
 struct ScanCloudStats {
   std::uint64_t scans = 0, points_read = 0, points_kept = 0;
-  bool colour = false;  // colour fields were used (else intensity, else mid grey)
+  std::uint64_t points_stray = 0;  // removed as stray after the voxel grid
+  bool colour = false;             // colour fields were used (else intensity, else mid grey)
   double ms = 0.0;
 };
 

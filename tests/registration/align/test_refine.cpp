@@ -15,6 +15,7 @@
 #include "registration/align/register.hpp"
 #include "registration/align/scan_cloud.hpp"
 #include "registration/align/scan_match.hpp"
+#include "registration/align/scan_outliers.hpp"
 #include "registration/render/renderer.hpp"
 #include "slam/core/error.hpp"
 
@@ -226,6 +227,37 @@ TEST(ScanCloud, VoxelGridAveragesEachVoxel) {
   EXPECT_FLOAT_EQ(d.splat_size, static_cast<float>(0.01 * o.splat_factor));
   o.voxel_size = -1.0;
   EXPECT_THROW(voxel_downsample(c, o), Error);
+}
+
+// A wall sampled every 1 cm near the scanner and every 4 cm far from it, plus stray returns in
+// the air: the strays go, both parts of the wall stay (a global density threshold would take
+// the far, sparse part too).
+TEST(ScanCloud, StrayPointsAreRemovedAtEveryDensity) {
+  render::PointCloud c;
+  c.splat_size = 0.016f;
+  const auto add = [&](const Eigen::Vector3f& p, float side) {
+    c.points.push_back(p);
+    c.colours.push_back({90, 90, 90});
+    c.splat_sizes.push_back(side);
+  };
+  for (int i = 0; i < 50; ++i)
+    for (int j = 0; j < 50; ++j)
+      add({0.01f * i, 0.01f * j, 2.0f}, 0.016f);
+  for (int i = 0; i < 30; ++i)
+    for (int j = 0; j < 30; ++j)
+      add({1.0f + 0.04f * i, 0.04f * j, 2.0f}, 0.06f);
+  const std::size_t wall = c.points.size();
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<float> air(0.3f, 1.7f);
+  for (int k = 0; k < 40; ++k)
+    add({air(rng), air(rng), air(rng)}, 0.03f);
+  EXPECT_EQ(remove_stray_points(c), 40u);
+  ASSERT_EQ(c.points.size(), wall);
+  for (const Eigen::Vector3f& p : c.points)
+    EXPECT_FLOAT_EQ(p.z(), 2.0f);
+  EXPECT_EQ(c.splat_sizes.size(), wall);
+  EXPECT_EQ(remove_stray_points(c, {.min_neighbours = 0}), 0u);
+  EXPECT_THROW(remove_stray_points(c, {.radius_factor = 0.0}), Error);
 }
 
 TEST(ScanCloud, ReadsAnE57FileWithColourAndRangeSplats) {
