@@ -21,6 +21,7 @@ struct TwinArgs {
   std::string preset = "room";
   std::uint64_t seed = 1;
   int walk = 0;  // GenerateOptions::walk_variant
+  int moved_furniture = 0;
   std::string out;
   double seconds = 0.0;
   int face_size = 0;
@@ -38,6 +39,7 @@ void run_generate(const TwinArgs& a) {
   twin::GenerateOptions o = twin::preset_options(twin::parse_preset(a.preset));
   o.seed = a.seed;
   o.walk_variant = a.walk;
+  o.moved_furniture = a.moved_furniture;
   o.max_duration = a.seconds;
   o.supersample = a.supersample;
   o.motion_blur = a.motion_blur;
@@ -60,6 +62,7 @@ void run_generate(const TwinArgs& a) {
                 {"scan_points", s.scan_points},
                 {"markers", s.markers},
                 {"triangles", s.triangles},
+                {"moved_furniture", s.moved_furniture},
                 {"path_length_m", s.path_length},
                 {"seconds_scene", s.seconds_scene},
                 {"seconds_sequence", s.seconds_sequence},
@@ -194,6 +197,9 @@ void add_twin_verb(CLI::App& app, CLI::App& bench) {
       ->capture_default_str();
   gen->add_option("--marker-size", args->marker_size, "Marker black-square edge (m)")
       ->capture_default_str();
+  gen->add_option("--moved-furniture", args->moved_furniture,
+                  "Pieces of furniture moved 0.8 m between the scan and the sequence")
+      ->check(CLI::Range(0, 100));
   gen->add_flag("--no-scan", args->no_scan, "Skip the laser scan");
   gen->add_flag("--motion-blur", args->motion_blur, "Average 3 renders over the exposure");
   gen->add_option("--depth-noise", args->depth_noise,

@@ -313,4 +313,35 @@ FloorPlan make_floor_plan(const FloorPlanOptions& options, std::mt19937_64& rng)
   return plan;
 }
 
+int move_furniture(FloorPlan& plan, int count, double shift) {
+  const int n = static_cast<int>(plan.furniture.size());
+  int moved = 0;
+  for (int k = 0; k < std::min(count, n); ++k) {
+    const auto index = static_cast<std::size_t>((k * n) / std::max(count, 1));
+    Box& box = plan.furniture[index];
+    const Rect old{box.min.head<2>(), box.max.head<2>()};
+    // Furniture stands with its long side against the wall: slide along that side.
+    const Vec2 size = old.max - old.min;
+    const Vec2 along = size.x() >= size.y() ? Vec2(1.0, 0.0) : Vec2(0.0, 1.0);
+    for (const double sign : {1.0, -1.0}) {
+      const Rect r{old.min + sign * shift * along, old.max + sign * shift * along};
+      bool ok = plan.is_free(r.min) && plan.is_free(r.max) &&
+                plan.is_free({r.min.x(), r.max.y()}) && plan.is_free({r.max.x(), r.min.y()}) &&
+                rect_to_polyline(r, plan.path) > 0.6;
+      for (std::size_t f = 0; f < plan.furniture.size() && ok; ++f) {
+        if (f == index) continue;
+        const Rect fr{plan.furniture[f].min.head<2>(), plan.furniture[f].max.head<2>()};
+        ok = !((r.min.array() < fr.max.array() + 0.15).all() &&
+               (fr.min.array() < r.max.array() + 0.15).all());
+      }
+      if (!ok) continue;
+      box.min.head<2>() = r.min;
+      box.max.head<2>() = r.max;
+      ++moved;
+      break;
+    }
+  }
+  return moved;
+}
+
 }  // namespace coloc::registration::twin

@@ -70,4 +70,10 @@ struct FloorPlanOptions {
 // furniture at random (from `rng`) where they block neither doors, path nor stations.
 FloorPlan make_floor_plan(const FloorPlanOptions& options, std::mt19937_64& rng);
 
+// Objects moved between the scan and the mapping (the paper's moved table): `count` pieces of
+// furniture, spread over the plan, slid `shift` metres along their wall where the new place is
+// free, clear of the other furniture and as far from the walked path as before (the camera never
+// walks through a moved table). Returns how many moved (a piece with no free place stays).
+int move_furniture(FloorPlan& plan, int count, double shift);
+
 }  // namespace coloc::registration::twin

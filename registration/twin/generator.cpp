@@ -151,7 +151,8 @@ void write_summary(const fs::path& path, const GenerateOptions& o, const Generat
       << "\nstations: " << s.stations << "\nscan_points: " << s.scan_points
       << "\nmarkers: " << s.markers << "\nmarker_dictionary: " << o.dictionary
       << "\nmarker_size: " << o.marker_size << "\ntriangles: " << s.triangles
-      << "\npath_length: " << s.path_length << "\nscan_face_size: " << o.scan.face_size << "\n";
+      << "\nmoved_furniture: " << s.moved_furniture << "\npath_length: " << s.path_length
+      << "\nscan_face_size: " << o.scan.face_size << "\n";
 }
 
 }  // namespace
@@ -175,6 +176,8 @@ void GenerateOptions::check() const {
   }
   if (!(fps > 0.5 && fps <= 120.0)) throw Error("fps must be in (0.5, 120]", {.field = "fps"});
   if (max_duration < 0.0) throw Error("max_duration must be >= 0", {.field = "max_duration"});
+  if (moved_furniture < 0 || moved_furniture > 100)
+    throw Error("moved_furniture must be in 0..100", {.field = "moved_furniture"});
   if (image_noise < 0.0) throw Error("image_noise must be >= 0", {.field = "image_noise"});
   if (supersample < 1 || supersample % 2 == 0)
     throw Error("supersample must be odd", {.field = "supersample"});
@@ -241,7 +244,11 @@ GenerateSummary generate_twin(const GenerateOptions& o, const fs::path& out) {
   so.texture_size = o.texture_size;
   const TwinScene scene = build_scene(so, o.seed);
   render::Renderer renderer(render::RenderOptions{.supersample = o.supersample});
-  renderer.set_mesh(scene.mesh);
+  // Same seed, so the same plan, with some furniture moved: what the camera sees now.
+  so.moved_furniture = o.moved_furniture;
+  const TwinScene now = o.moved_furniture > 0 ? build_scene(so, o.seed) : TwinScene{};
+  s.moved_furniture = static_cast<std::size_t>(now.moved_furniture);
+  renderer.set_mesh(o.moved_furniture > 0 ? now.mesh : scene.mesh);
   s.markers = scene.markers.size();
   s.triangles = scene.mesh.triangle_count();
   s.seconds_scene = sw.elapsed_seconds();
@@ -289,6 +296,7 @@ GenerateSummary generate_twin(const GenerateOptions& o, const fs::path& out) {
   }
   if (o.write_scan) {
     sw.restart();
+    if (o.moved_furniture > 0) renderer.set_mesh(scene.mesh);
     std::vector<ScanStation> stations = write_scan(renderer, scene, o, out / "scan", s.scan_points);
     io::write_stations(out / "scan" / "stations.txt", out / "scan" / "faces.txt", stations);
     s.stations = stations.size();

@@ -46,6 +46,9 @@ struct GenerateOptions {
   // walk; 1 and 2 walk the path 0.25 m to its left / right with other head motion (the walk's
   // phases from another seed). To localize a second walk in a map of the first.
   int walk_variant = 0;
+  // Pieces of furniture moved between the scan and the sequence (scene.hpp): the scan shows
+  // them where they were, the sequence where they are now.
+  int moved_furniture = 0;
   ImuOptions imu;
   HeadsetOptions headset;
   DepthNoiseOptions depth;
@@ -68,7 +71,8 @@ struct GenerateSummary {
   std::size_t scan_points = 0;
   std::size_t markers = 0;
   std::size_t triangles = 0;
-  double path_length = 0.0;  // metres walked by the camera
+  std::size_t moved_furniture = 0;  // pieces actually moved
+  double path_length = 0.0;         // metres walked by the camera
   double seconds_scene = 0.0;
   double seconds_sequence = 0.0;
   double seconds_scan = 0.0;

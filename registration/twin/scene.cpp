@@ -236,6 +236,8 @@ TwinScene build_scene(const SceneOptions& options, std::uint64_t seed) {
   fo.floor_textures = kFloorTextures;
   fo.furniture_textures = kFurnitureTextures;
   scene.plan = make_floor_plan(fo, rng);
+  if (options.moved_furniture > 0)
+    scene.moved_furniture = move_furniture(scene.plan, options.moved_furniture, 0.8);
 
   // Texture ids: walls, floors, furniture, ceiling, then one per marker.
   const int n = options.texture_size;

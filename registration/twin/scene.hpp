@@ -19,6 +19,9 @@ struct SceneOptions {
   double marker_size = 0.1675;  // edge of the black square, metres
   int texture_size = 1024;      // pixels per procedural texture (covers 2 m x 2 m)
   double texture_tile = 2.0;    // metres covered by one texture repeat
+  // Pieces of furniture moved 0.8 m along their wall after planning (move_furniture): the
+  // sequence's scene when the scan shows the old places.
+  int moved_furniture = 0;
 
   void check() const;  // throws coloc::Error naming the bad field
 };
@@ -39,6 +42,7 @@ struct TwinScene {
   render::TexturedMesh mesh;
   std::vector<MarkerTruth> markers;
   int dictionary = 0;
+  int moved_furniture = 0;  // pieces actually moved (SceneOptions::moved_furniture asked)
 };
 
 // Deterministic in (options, seed).

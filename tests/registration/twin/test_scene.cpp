@@ -74,6 +74,34 @@ TEST(TwinScene, PresetsHaveMarkersStationsAndAClosedPath) {
   EXPECT_THROW(build_scene(bad, 1), Error);
 }
 
+// The paper's moved table: the sequence's scene has furniture where the scan's has none, and
+// nothing else changed (same walls, markers and path).
+TEST(TwinScene, MovedFurnitureMovesOnlyFurniture) {
+  SceneOptions o;
+  o.preset = Preset::kBuilding;
+  o.texture_size = 128;
+  const TwinScene before = build_scene(o, 3);
+  o.moved_furniture = 3;
+  const TwinScene after = build_scene(o, 3);
+  EXPECT_EQ(after.moved_furniture, 3);
+  ASSERT_EQ(after.plan.furniture.size(), before.plan.furniture.size());
+  int moved = 0;
+  for (std::size_t i = 0; i < before.plan.furniture.size(); ++i) {
+    const Box& a = before.plan.furniture[i];
+    const Box& b = after.plan.furniture[i];
+    if ((a.min - b.min).norm() < 1e-9) continue;
+    ++moved;
+    EXPECT_NEAR((b.min - a.min).norm(), 0.8, 1e-9);
+    EXPECT_NEAR(((b.max - b.min) - (a.max - a.min)).norm(), 0.0, 1e-9) << "same size";
+    EXPECT_DOUBLE_EQ(a.min.z(), b.min.z());
+  }
+  EXPECT_EQ(moved, 3);
+  EXPECT_EQ(after.plan.path, before.plan.path);
+  ASSERT_EQ(after.markers.size(), before.markers.size());
+  for (std::size_t i = 0; i < before.markers.size(); ++i)
+    EXPECT_EQ(after.markers[i].corners, before.markers[i].corners);
+}
+
 TEST(TwinScene, PathOfBuildingPresetIsAtLeast40Metres) {
   SceneOptions o = small_room();
   o.preset = Preset::kBuilding;

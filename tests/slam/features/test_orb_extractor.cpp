@@ -137,7 +137,8 @@ TEST(OrbExtractor, HigherLevelKeypointsAgreeWithLevelZero) {
   std::sort(files.begin(), files.end());
   files.resize(std::min<std::size_t>(files.size(), 12));
   OrbExtractor extractor(ExtractorOptions{.n_features = 3000});
-  std::array<Eigen::Vector2d, 4> sum{};
+  std::array<Eigen::Vector2d, 4> sum;
+  sum.fill(Eigen::Vector2d::Zero());  // Eigen's default constructor leaves them uninitialized
   std::array<int, 4> count{};
   for (const auto& file : files) {
     const OrbFeatures f = extractor.extract(cv::imread(file.string(), cv::IMREAD_GRAYSCALE));
