@@ -5,6 +5,7 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -40,6 +41,7 @@ struct RegisterArgs {
   std::string refine_mode = "terms";
   std::string level = "markers";
   int min_markers = 3;
+  std::vector<int> only_markers, ignore_markers;
   double inlier_threshold = 0.35;
   double marker_gate = 5.0;
   double marker_weight = 1.0;
@@ -139,6 +141,28 @@ align::RegisterOptions options_of(const RegisterArgs& a) {
   return options;
 }
 
+// The scanned markers the registration may use: --only-markers (when given) minus
+// --ignore-markers (a marker known to have moved since the scan). An id the marker map does
+// not hold is an error naming it: a typo must not silently register with other markers.
+markers::MarkerMap select_markers(markers::MarkerMap map, const std::vector<int>& only,
+                                  const std::vector<int>& ignore) {
+  for (const auto* list : {&only, &ignore}) {
+    for (int id : *list) {
+      if (!map.markers.count(id))
+        throw Error("marker " + std::to_string(id) + " is not in the scan's marker map",
+                    {.field = list == &only ? "--only-markers" : "--ignore-markers"});
+    }
+  }
+  if (!only.empty()) {
+    std::erase_if(map.markers, [&](const auto& m) {
+      return std::find(only.begin(), only.end(), m.first) == only.end();
+    });
+  }
+  for (int id : ignore)
+    map.markers.erase(id);
+  return map;
+}
+
 // registration.json in the report directory (temporary file renamed over it).
 void write_report_json(const fs::path& dir, const std::string& summary) {
   fs::create_directories(dir);
@@ -162,7 +186,8 @@ void register_verb(const RegisterArgs& a) {
   // An unwritable output is an error before any work (the map is written later under a
   // temporary name and renamed).
   { const slam::mapdb::AtomicFile probe(a.out); }
-  const markers::MarkerMap scan = markers::read_marker_map(a.markers);
+  const markers::MarkerMap scan =
+      select_markers(markers::read_marker_map(a.markers), a.only_markers, a.ignore_markers);
   render::PointCloud cloud;
   align::ScanCloudStats cloud_stats;
   if (options.level == align::Level::kPointcloud) {
@@ -272,6 +297,12 @@ void add_register_verb(CLI::App& app) {
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
   cmd.add_option("--vocabulary", a->vocabulary, "BoW vocabulary the map was built with");
+  cmd.add_option("--only-markers", a->only_markers,
+                 "Use only these scanned markers (ids, e.g. 3,7,12)")
+      ->delimiter(',');
+  cmd.add_option("--ignore-markers", a->ignore_markers,
+                 "Leave these scanned markers out (e.g. one known to have moved)")
+      ->delimiter(',');
   cmd.add_option("--min-markers", a->min_markers, "Fewest consistent markers accepted")
       ->check(CLI::Range(2, 1000))
       ->capture_default_str();
