@@ -176,28 +176,48 @@ void write_report_json(const fs::path& dir, const std::string& summary) {
   fs::rename(tmp, file);
 }
 
+render::PointCloud read_scan_points(const RegisterArgs& a, const align::ScanCloudOptions& o,
+                                    align::ScanCloudStats& stats) {
+  RowProgress progress("reading the scan", a.json);
+  render::PointCloud cloud = align::load_scan_cloud(a.scan, o, &stats, progress.callback());
+  progress.finish();
+  spdlog::info("scan: {} points read, {} kept ({} m voxels, {} stray removed), {:.0f} ms",
+               stats.points_read, stats.points_kept, a.voxel, stats.points_stray, stats.ms);
+  return cloud;
+}
+
+// What the registered map's metadata keeps: the registration's JSON, plus the scan's figures
+// at level pointcloud.
+std::string summary_of(const align::RegistrationResult& r, const RegisterArgs& a,
+                       const align::ScanCloudStats& stats) {
+  std::string summary = align::registration_json(r);
+  if (!r.refine) return summary;
+  Json j = Json::parse(summary);
+  j["pointcloud"]["scan"] = {{"file", a.scan.string()},
+                             {"points_read", stats.points_read},
+                             {"points_kept", stats.points_kept},
+                             {"points_stray", stats.points_stray},
+                             {"voxel_m", a.voxel},
+                             {"ms", stats.ms}};
+  return j.dump();
+}
+
 void register_verb(const RegisterArgs& a) {
   if (a.level == "pointcloud" && a.scan.empty())
     throw Error("level pointcloud needs the scan's points", {.field = "--scan"});
   const align::RegisterOptions options = options_of(a);
   align::ScanCloudOptions cloud_options;
   cloud_options.voxel_size = a.voxel;
-  cloud_options.check();
+  cloud_options.check();  // before any work
   // An unwritable output is an error before any work (the map is written later under a
   // temporary name and renamed).
   { const slam::mapdb::AtomicFile probe(a.out); }
   const markers::MarkerMap scan =
       select_markers(markers::read_marker_map(a.markers), a.only_markers, a.ignore_markers);
-  render::PointCloud cloud;
   align::ScanCloudStats cloud_stats;
-  if (options.level == align::Level::kPointcloud) {
-    RowProgress scan_progress("reading the scan", a.json);
-    cloud = align::load_scan_cloud(a.scan, cloud_options, &cloud_stats, scan_progress.callback());
-    scan_progress.finish();
-    spdlog::info("scan: {} points read, {} kept ({} m voxels, {} stray removed), {:.0f} ms",
-                 cloud_stats.points_read, cloud_stats.points_kept, a.voxel,
-                 cloud_stats.points_stray, cloud_stats.ms);
-  }
+  const render::PointCloud cloud = options.level == align::Level::kPointcloud
+                                       ? read_scan_points(a, cloud_options, cloud_stats)
+                                       : render::PointCloud{};
 
   Stopwatch watch;
   const slam::bow::Vocabulary vocabulary = load_vocabulary(a.vocabulary);
@@ -223,17 +243,7 @@ void register_verb(const RegisterArgs& a) {
     throw CliFailure("fewer than two markers survived the bundle adjustment (rejected: " +
                      std::to_string(r.ba->rejected_ids().size()) + "); the map was not written");
   }
-  std::string summary = align::registration_json(r);
-  if (r.refine) {
-    Json j = Json::parse(summary);
-    j["pointcloud"]["scan"] = {{"file", a.scan.string()},
-                               {"points_read", cloud_stats.points_read},
-                               {"points_kept", cloud_stats.points_kept},
-                               {"points_stray", cloud_stats.points_stray},
-                               {"voxel_m", a.voxel},
-                               {"ms", cloud_stats.ms}};
-    summary = j.dump();
-  }
+  const std::string summary = summary_of(r, a, cloud_stats);
 
   slam::mapdb::MapMetadata metadata = loaded.metadata;
   metadata.frame_name = "scan";
