@@ -21,6 +21,7 @@ coloc_require_package(nlohmann_json nlohmann-json3-dev 3.10)
 coloc_require_package(pugixml libpugixml-dev)
 coloc_require_package(SQLite3 libsqlite3-dev)
 coloc_require_package(Threads libc6-dev)
+coloc_require_package(yaml-cpp libyaml-cpp-dev)
 
 # liblo and OSMesa ship only pkg-config files on Debian.
 pkg_check_modules(LIBLO IMPORTED_TARGET liblo>=0.31)
