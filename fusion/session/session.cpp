@@ -10,9 +10,10 @@
 #include "slam/core/error.hpp"
 
 namespace coloc::fusion::session {
-namespace {
 
 namespace he = registration::handeye;
+
+namespace {
 
 he::CalibrationFile load_calibration(const ParticipantConfig& p, std::size_t index) {
   try {
@@ -35,16 +36,23 @@ std::string controller_address(std::string_view id, int index) {
 }
 
 Session::Session(SessionConfig config, FuserOptions fuser)
+    : Session(config, {}, fuser) {}
+
+Session::Session(SessionConfig config, std::vector<he::CalibrationFile> calibrations,
+                 FuserOptions fuser)
     : config_(std::move(config)), fuser_options_(fuser) {
   config_.check();
   fuser_options_.check();
+  if (!calibrations.empty() && calibrations.size() != config_.participants.size()) {
+    throw Error("one calibration per participant is needed", ErrorContext{.field = "calibrations"});
+  }
   anchored_ = config_.anchor.mode == AnchorMode::kFixed;
   world_from_camera_ = config_.anchor.world_from_camera;
   participants_.reserve(config_.participants.size());
   for (std::size_t i = 0; i < config_.participants.size(); ++i) {
     Participant p;
     p.config = config_.participants[i];
-    p.calibration = load_calibration(p.config, i);
+    p.calibration = calibrations.empty() ? load_calibration(p.config, i) : calibrations[i];
     if (p.config.drift_correction) p.fuser = std::make_unique<DriftFuser>(fuser_options_);
     p.head.last.address = head_address(p.config.id);
     p.controllers.resize(static_cast<std::size_t>(p.config.controllers));

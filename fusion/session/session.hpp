@@ -87,6 +87,10 @@ class Session {
   // Reads every participant's calibration; throws coloc::Error naming the participant's
   // calibration field and file when one cannot be read.
   explicit Session(SessionConfig config, FuserOptions fuser = {});
+  // With the calibrations given (one per participant, in order; simulations). Reloads still
+  // read the participants' files.
+  Session(SessionConfig config, std::vector<registration::handeye::CalibrationFile> calibrations,
+          FuserOptions fuser = {});
 
   const SessionConfig& config() const { return config_; }
   bool anchored() const { return anchored_; }
