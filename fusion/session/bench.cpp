@@ -110,8 +110,8 @@ void LatencyBenchOptions::check() const {
 
 LatencyBenchReport bench_session_latency(const LatencyBenchOptions& o) {
   o.check();
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("coloc_bench_session_" + std::to_string(::getpid()));
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("coloc_bench_session_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   Receiver receiver;
   SessionNodeOptions options;
@@ -136,7 +136,8 @@ LatencyBenchReport bench_session_latency(const LatencyBenchOptions& o) {
   const auto start = std::chrono::steady_clock::now();
   LatencyBenchReport r;
   r.sent = send_poses(o, node.port());
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   done = true;
   listen.join();
   node.stop();
@@ -153,7 +154,8 @@ LatencyBenchReport bench_session_latency(const LatencyBenchOptions& o) {
   if (!latencies.empty()) {
     std::sort(latencies.begin(), latencies.end());
     const auto at = [&](double q) {
-      return 1e3 * latencies[static_cast<std::size_t>(q * static_cast<double>(latencies.size() - 1))];
+      return 1e3 *
+             latencies[static_cast<std::size_t>(q * static_cast<double>(latencies.size() - 1))];
     };
     r.median_ms = at(0.5);
     r.p99_ms = at(0.99);

@@ -16,10 +16,10 @@ namespace coloc::fusion::session {
 
 struct LatencyBenchOptions {
   int participants = 8;
-  double rate = 90.0;    // Hz per participant (head + controllers per tick)
-  int controllers = 2;   // per participant
+  double rate = 90.0;   // Hz per participant (head + controllers per tick)
+  int controllers = 2;  // per participant
   double seconds = 10.0;
-  void check() const;    // throws coloc::Error naming the field
+  void check() const;  // throws coloc::Error naming the field
 };
 
 struct LatencyBenchReport {

@@ -80,9 +80,9 @@ SE3 pose(const YAML::Node& node, const Where& where) {
 }
 
 AnchorConfig parse_anchor(const YAML::Node& node, const Where& where) {
-  check_keys(node, where,
-             {"camera", "world_from_camera", "world_from_marker", "camera_from_marker",
-              "localize"});
+  check_keys(
+      node, where,
+      {"camera", "world_from_camera", "world_from_marker", "camera_from_marker", "localize"});
   AnchorConfig a;
   if (node["camera"]) a.camera = scalar<std::string>(node["camera"], where.child("camera"), "text");
   const bool fixed = static_cast<bool>(node["world_from_camera"]);
@@ -94,14 +94,16 @@ AnchorConfig parse_anchor(const YAML::Node& node, const Where& where) {
         "localize",
         node);
   }
-  if (fixed) a.world_from_camera = pose(node["world_from_camera"], where.child("world_from_camera"));
+  if (fixed)
+    a.world_from_camera = pose(node["world_from_camera"], where.child("world_from_camera"));
   if (marker) {
     for (const char* key : {"world_from_marker", "camera_from_marker"}) {
       if (!node[key]) where.child(key).fail("missing (the marker needs both poses)", node);
     }
     // The floor marker's pose in the scan and the camera's PnP of it.
-    a.world_from_camera = pose(node["world_from_marker"], where.child("world_from_marker")) *
-                          pose(node["camera_from_marker"], where.child("camera_from_marker")).inverse();
+    a.world_from_camera =
+        pose(node["world_from_marker"], where.child("world_from_marker")) *
+        pose(node["camera_from_marker"], where.child("camera_from_marker")).inverse();
   }
   if (localize) {
     const YAML::Node l = node["localize"];
@@ -208,11 +210,10 @@ SessionConfig parse_session_config(const std::string& text, const std::filesyste
   try {
     root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
-    throw Error("not YAML: " + e.msg, ErrorContext{.file = origin.string(),
-                                                   .line = e.mark.line >= 0
-                                                               ? std::optional<std::int64_t>(
-                                                                     e.mark.line + 1)
-                                                               : std::nullopt});
+    throw Error("not YAML: " + e.msg,
+                ErrorContext{.file = origin.string(),
+                             .line = e.mark.line >= 0 ? std::optional<std::int64_t>(e.mark.line + 1)
+                                                      : std::nullopt});
   }
   const Where where{origin, ""};
   check_keys(root, where, {"anchor", "participants", "stale_after", "drift_correction"});

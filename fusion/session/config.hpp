@@ -41,12 +41,12 @@ struct AnchorConfig {
 struct ParticipantConfig {
   std::string id;  // [A-Za-z0-9_-]+, the <id> of /coloc/users/<id>/...
   ParticipantKind kind = ParticipantKind::kVr;
-  std::string system;                       // free text ("HTC VIVE Pro"), for logs
-  std::filesystem::path calibration;        // `coloc handeye solve --output` file (absolute)
-  int port = 0;                             // 0: id-tagged messages on the shared port only;
-                                            // > 0: also plain (untagged) messages on this port
-  int controllers = 2;                      // controller indices 0..controllers-1 accepted
-  bool drift_correction = true;             // fuse /coloc/pose for this participant if it comes
+  std::string system;                 // free text ("HTC VIVE Pro"), for logs
+  std::filesystem::path calibration;  // `coloc handeye solve --output` file (absolute)
+  int port = 0;                       // 0: id-tagged messages on the shared port only;
+                                      // > 0: also plain (untagged) messages on this port
+  int controllers = 2;                // controller indices 0..controllers-1 accepted
+  bool drift_correction = true;       // fuse /coloc/pose for this participant if it comes
 };
 
 struct SessionConfig {

@@ -63,8 +63,7 @@ std::string controller_device(int index) {
 }  // namespace
 
 double session_clock() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
 void SessionNodeOptions::check() const {
@@ -93,7 +92,8 @@ SessionNode::SessionNode(Session session, SessionNodeOptions options, LogSink lo
     }
     for (std::size_t i = 0; i < c.participants.size(); ++i) {
       const ParticipantConfig& p = c.participants[i];
-      if (p.port > 0) add(p.port, Role::kParticipant, p.id, "participants[" + std::to_string(i) + "].port");
+      if (p.port > 0)
+        add(p.port, Role::kParticipant, p.id, "participants[" + std::to_string(i) + "].port");
     }
     wake_fd_ = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
     if (wake_fd_ < 0) throw Error(std::string("cannot create an eventfd: ") + std::strerror(errno));
@@ -182,8 +182,8 @@ void SessionNode::drain(const Socket& socket) {
                                  reinterpret_cast<sockaddr*>(&from), &length);
     if (n < 0) return;  // EAGAIN: drained (or an ICMP error reported on the socket)
     const double now = session_clock();
-    const WireResult decoded =
-        decode_session_packet(buffer_.data(), static_cast<std::size_t>(n), options_.max_packet_size);
+    const WireResult decoded = decode_session_packet(buffer_.data(), static_cast<std::size_t>(n),
+                                                     options_.max_packet_size);
     const OscPeer peer{ntohl(from.sin_addr.s_addr), ntohs(from.sin_port)};
     std::vector<Output> out;
     {
@@ -286,7 +286,8 @@ void SessionNode::handle_file_events() {
       const auto folder = watched_.find(e->wd);
       if (folder == watched_.end() || e->len == 0) continue;
       const std::lock_guard lock(mutex_);
-      if (const ParticipantConfig* p = session_.participant_by_calibration(folder->second / e->name)) {
+      if (const ParticipantConfig* p =
+              session_.participant_by_calibration(folder->second / e->name)) {
         changed.insert(p->id);
       }
     }

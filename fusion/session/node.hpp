@@ -87,8 +87,7 @@ class SessionNode {
   void send_outputs(const std::vector<Output>& out);
   void reply(const OscPeer& to, const std::vector<Output>& out);
   void handle_file_events();
-  void log(const std::string& participant, std::string device, const PoseMessage& pose,
-           double now);
+  void log(const std::string& participant, std::string device, const PoseMessage& pose, double now);
 
   SessionNodeOptions options_;
   LogSink log_;

@@ -35,8 +35,7 @@ std::string controller_address(std::string_view id, int index) {
   return "/coloc/users/" + std::string(id) + "/controller/" + std::to_string(index);
 }
 
-Session::Session(SessionConfig config, FuserOptions fuser)
-    : Session(config, {}, fuser) {}
+Session::Session(SessionConfig config, FuserOptions fuser) : Session(config, {}, fuser) {}
 
 Session::Session(SessionConfig config, std::vector<he::CalibrationFile> calibrations,
                  FuserOptions fuser)
@@ -158,7 +157,8 @@ void Session::push_controller(const std::string& id, int index,
   ++stats_.controller_poses;
   // The drift belongs to the tracking space, so the head's correction applies to its
   // controllers too.
-  const SE3 world_from_controller = correction_of(*p) * p->world_from_vr * vr_from_controller.pose();
+  const SE3 world_from_controller =
+      correction_of(*p) * p->world_from_vr * vr_from_controller.pose();
   track.last_seen = now;
   track.stale = false;
   emit(track, vr_from_controller.time, state_of(*p), world_from_controller, out);
@@ -193,10 +193,11 @@ void Session::push_anchor(const PoseMessage& world_from_camera) {
   anchored_ = true;
   for (Participant& p : participants_)
     place(p);
-  spdlog::info("session: anchor camera '{}' localized from {} poses (spread {:.1f} mm rms, {:.2f} "
-               "deg rms); participants are placed from now on",
-               config_.anchor.camera, anchor_samples_.size(), d.translation_rms * 1e3,
-               d.rotation_rms * 180.0 / M_PI);
+  spdlog::info(
+      "session: anchor camera '{}' localized from {} poses (spread {:.1f} mm rms, {:.2f} "
+      "deg rms); participants are placed from now on",
+      config_.anchor.camera, anchor_samples_.size(), d.translation_rms * 1e3,
+      d.rotation_rms * 180.0 / M_PI);
 }
 
 void Session::tick(double now, std::vector<Output>& out) {
@@ -206,8 +207,7 @@ void Session::tick(double now, std::vector<Output>& out) {
     ++stats_.stale_events;
     // Flag the last pose instead of freezing it silently: renderers can grey the user out.
     emit(t, t.last.pose.time, UserState::kStale, t.last.pose.pose(), out);
-    spdlog::info("session: {} is stale (nothing for {:.2f} s)", t.last.address,
-                 now - t.last_seen);
+    spdlog::info("session: {} is stale (nothing for {:.2f} s)", t.last.address, now - t.last_seen);
   };
   for (Participant& p : participants_) {
     check(p.head);
@@ -274,10 +274,11 @@ ReloadReport Session::reload(const std::string& id) {
   ++p->version;
   ++stats_.reloads;
   report.ok = true;
-  spdlog::info("session: participant '{}' re-anchored from {} (calibration {}): head moves {:.1f} "
-               "mm, {:.2f} deg; drift correction restarts",
-               id, p->config.calibration.string(), p->version, report.translation * 1e3,
-               report.rotation * 180.0 / M_PI);
+  spdlog::info(
+      "session: participant '{}' re-anchored from {} (calibration {}): head moves {:.1f} "
+      "mm, {:.2f} deg; drift correction restarts",
+      id, p->config.calibration.string(), p->version, report.translation * 1e3,
+      report.rotation * 180.0 / M_PI);
   return report;
 }
 

@@ -65,7 +65,7 @@ struct SessionStats {
 struct ReloadReport {
   std::string id;
   bool ok = false;
-  std::string error;        // why not, when !ok (the old calibration stays)
+  std::string error;         // why not, when !ok (the old calibration stays)
   double translation = 0.0;  // m: how far the user's last head pose moved in the world
   double rotation = 0.0;     // rad: and turned
 };

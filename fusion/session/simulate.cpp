@@ -6,7 +6,6 @@ namespace coloc::fusion::session {
 
 namespace he = registration::handeye;
 
-
 SystemModel vive_model() {
   return {"VIVE Pro", ParticipantKind::kVr, 0.0004, 0.0002, 0.0, 0.0, 0.0};
 }
@@ -50,7 +49,8 @@ Matrix6d vr_from_camera_covariance(std::span<const he::Registration> regs,
       // X's perturbation as handeye::Summary defines it: (Exp(d_theta) R, t + d_t).
       Eigen::Vector3d dt = Eigen::Vector3d::Zero(), dtheta = Eigen::Vector3d::Zero();
       (c < 3 ? dt : dtheta)[c % 3] = kStep;
-      const SE3 x(SO3::exp(dtheta) * device_from_marker.so3(), device_from_marker.translation() + dt);
+      const SE3 x(SO3::exp(dtheta) * device_from_marker.so3(),
+                  device_from_marker.translation() + dt);
       jacobian.col(c) += (eps(regs[i], x) - e0) / kStep;
     }
   }

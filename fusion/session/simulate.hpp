@@ -37,11 +37,11 @@ SystemModel quest_model();
 SystemModel tablet_model();
 
 struct MultiUserOptions {
-  int participants = 4;  // 2..8; systems cycle VIVE, Quest, tablet, VIVE, ...
-  double duration = 60.0;   // s
-  double rate = 90.0;       // Hz, head and controller samples
-  double global_sigma = 0.015;  // m, localizer noise (rotation: global_sigma / 3 rad)
-  int registrations = 10;       // per hand-eye calibration (handeye::simulate protocol noise)
+  int participants = 4;             // 2..8; systems cycle VIVE, Quest, tablet, VIVE, ...
+  double duration = 60.0;           // s
+  double rate = 90.0;               // Hz, head and controller samples
+  double global_sigma = 0.015;      // m, localizer noise (rotation: global_sigma / 3 rad)
+  int registrations = 10;           // per hand-eye calibration (handeye::simulate protocol noise)
   double occluded_fraction = 0.05;  // participant 1's controller 1: this share of samples jump
   double occluded_jump = 0.3;       // m, typical size of such a jump
   bool drift = true;                // false: no system drifts (calibration + noise only)

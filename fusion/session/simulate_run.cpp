@@ -75,8 +75,9 @@ Truth truth_of(const MultiUserOptions& o, int k, double t) {
   for (int n = 0; n < 2; ++n) {
     const double swing = 0.3 * std::sin(1.7 * t + n);
     truth.controllers[n] =
-        truth.head * SE3(Eigen::Quaterniond(Eigen::AngleAxisd(swing, Eigen::Vector3d::UnitY())),
-                         Eigen::Vector3d(0.35, n == 0 ? 0.2 : -0.2, -0.45 + 0.05 * std::sin(2.3 * t)));
+        truth.head *
+        SE3(Eigen::Quaterniond(Eigen::AngleAxisd(swing, Eigen::Vector3d::UnitY())),
+            Eigen::Vector3d(0.35, n == 0 ? 0.2 : -0.2, -0.45 + 0.05 * std::sin(2.3 * t)));
   }
   if (k == 1) {
     const SE3 rig(Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitX())),
@@ -121,8 +122,8 @@ std::vector<Member> make_members(const MultiUserOptions& o, int trial, const SE3
     m.drift_direction = Eigen::Vector3d(std::cos(heading), std::sin(heading), 0.0);
     he::SimulationOptions so;
     so.num_registrations = o.registrations;
-    so.seed = static_cast<std::uint64_t>(o.seed) * 100003u + static_cast<std::uint64_t>(trial) * 101u +
-              static_cast<std::uint64_t>(k);
+    so.seed = static_cast<std::uint64_t>(o.seed) * 100003u +
+              static_cast<std::uint64_t>(trial) * 101u + static_cast<std::uint64_t>(k);
     const he::Simulation sim = he::simulate(so);
     he::Options ho;
     ho.noise = he::noise_model(so);
@@ -131,9 +132,9 @@ std::vector<Member> make_members(const MultiUserOptions& o, int trial, const SE3
     const SE3 vr_from_camera = m.world_from_vr0.inverse() * world_from_camera;
     m.calibration = {s.device_from_marker, vr_from_camera * error, s.sigma};
     m.calibration_error = error.translation().norm();
-    m.covariance = vr_from_camera_covariance(sim.registrations, s.used, s.device_from_marker,
-                                             s.vr_from_camera,
-                                             s.device_from_marker_covariance.value_or(Matrix6d::Zero()));
+    m.covariance =
+        vr_from_camera_covariance(sim.registrations, s.used, s.device_from_marker, s.vr_from_camera,
+                                  s.device_from_marker_covariance.value_or(Matrix6d::Zero()));
     members.push_back(std::move(m));
   }
   return members;
@@ -217,8 +218,10 @@ SE3 feed(const MultiUserOptions& o, const Member& m, int k, int i, Session& sess
   const Truth truth = truth_of(o, k, t);
   const SE3 vr_from_world = m.world_from_vr(t).inverse();
   std::vector<Output> out;
-  session.push_head(m.id, message(t, i, noisy(vr_from_world * truth.head, rng,
-                                              m.model.position_noise, m.model.rotation_noise)),
+  session.push_head(m.id,
+                    message(t, i,
+                            noisy(vr_from_world * truth.head, rng, m.model.position_noise,
+                                  m.model.rotation_noise)),
                     t, out);
   const SE3 head = out.back().pose.pose();
   const bool scored = t >= 2.0;
@@ -233,16 +236,23 @@ SE3 feed(const MultiUserOptions& o, const Member& m, int k, int i, Session& sess
     if (k == 1 && n == 1 && u(rng) < o.occluded_fraction) {
       // Occluded: the inside-out tracker guesses the controller's position.
       reported.translation() +=
-          o.occluded_jump * (0.5 + u(rng)) * Eigen::Vector3d(u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5).normalized();
+          o.occluded_jump * (0.5 + u(rng)) *
+          Eigen::Vector3d(u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5).normalized();
     }
     out.clear();
     session.push_controller(m.id, n, message(t, i, reported), t, out);
-    if (scored) totals.controller_position[k].add(translation_distance(out.back().pose.pose(), truth.controllers[n]));
-    if (record_locked && n == 0) (k == 0 ? totals.locked_a : totals.locked_b).push_back({t, reported});
+    if (scored)
+      totals.controller_position[k].add(
+          translation_distance(out.back().pose.pose(), truth.controllers[n]));
+    if (record_locked && n == 0)
+      (k == 0 ? totals.locked_a : totals.locked_b).push_back({t, reported});
   }
-  const int every = m.model.global_rate > 0.0 ? std::max(1, static_cast<int>(std::lround(o.rate / m.model.global_rate))) : 0;
+  const int every = m.model.global_rate > 0.0
+                        ? std::max(1, static_cast<int>(std::lround(o.rate / m.model.global_rate)))
+                        : 0;
   if (every > 0 && i % every == 0) {
-    session.push_global(m.id, message(t, i, noisy(truth.head, rng, o.global_sigma, o.global_sigma / 3.0)));
+    session.push_global(
+        m.id, message(t, i, noisy(truth.head, rng, o.global_sigma, o.global_sigma / 3.0)));
   }
   return head;
 }
@@ -251,8 +261,9 @@ void run_trial(const MultiUserOptions& o, int trial, Totals& totals) {
   std::mt19937 rng(o.seed * 7919u + static_cast<std::uint32_t>(trial));
   // The anchor camera on a tripod near the walk's start, 1.3 m up, looking along the walk.
   const SE3 world_from_camera =
-      walk_pose(o.walk, 0.0) * SE3(Eigen::Quaterniond(Eigen::AngleAxisd(-std::numbers::pi / 2, Eigen::Vector3d::UnitY())),
-                                   Eigen::Vector3d(1.0, 0.5, -0.3));
+      walk_pose(o.walk, 0.0) *
+      SE3(Eigen::Quaterniond(Eigen::AngleAxisd(-std::numbers::pi / 2, Eigen::Vector3d::UnitY())),
+          Eigen::Vector3d(1.0, 0.5, -0.3));
   const std::vector<Member> members = make_members(o, trial, world_from_camera, rng);
   Session session = make_session(members, world_from_camera);
   const int steps = static_cast<int>(o.duration * o.rate);
@@ -265,7 +276,8 @@ void run_trial(const MultiUserOptions& o, int trial, Totals& totals) {
     std::size_t pair = 0;
     for (int a = 0; a < k_count; ++a) {
       for (int b = a + 1; b < k_count; ++b, ++pair) {
-        const SE3 truth = truth_of(o, a, i / o.rate).head.inverse() * truth_of(o, b, i / o.rate).head;
+        const SE3 truth =
+            truth_of(o, a, i / o.rate).head.inverse() * truth_of(o, b, i / o.rate).head;
         const SE3 rel = heads[a].inverse() * heads[b];
         totals.pair_position[pair].add(translation_distance(rel, truth));
         totals.pair_rotation[pair].add(rotation_distance(rel, truth));
@@ -284,7 +296,8 @@ void run_trial(const MultiUserOptions& o, int trial, Totals& totals) {
   totals.published += session.stats().published;
 }
 
-StabilityRow stability_of(const Totals& totals, const SE3& vr_a_from_camera, const SE3& vr_b_from_camera) {
+StabilityRow stability_of(const Totals& totals, const SE3& vr_a_from_camera,
+                          const SE3& vr_b_from_camera) {
   std::vector<SE3> a, b;
   for (std::size_t i = 0; i < std::min(totals.locked_a.size(), totals.locked_b.size()); ++i) {
     a.push_back(totals.locked_a[i].pose);
@@ -292,7 +305,8 @@ StabilityRow stability_of(const Totals& totals, const SE3& vr_a_from_camera, con
   }
   StabilityRow row;
   if (a.empty()) return row;
-  const he::Dispersion d = he::locked_controller_stability(a, b, vr_a_from_camera, vr_b_from_camera);
+  const he::Dispersion d =
+      he::locked_controller_stability(a, b, vr_a_from_camera, vr_b_from_camera);
   row.rotation_mean = Eigen::AngleAxisd(d.mean.quaternion()).angle();
   row.rotation_mean_abs = d.rotation_mean_abs;
   row.rotation_rms = d.rotation_rms;
@@ -324,11 +338,13 @@ MultiUserReport simulate_multi_user(const MultiUserOptions& o) {
   // The stability table uses the first trial's two calibrations again (same seeds).
   std::mt19937 rng(o.seed * 7919u);
   const SE3 world_from_camera =
-      walk_pose(o.walk, 0.0) * SE3(Eigen::Quaterniond(Eigen::AngleAxisd(-std::numbers::pi / 2, Eigen::Vector3d::UnitY())),
-                                   Eigen::Vector3d(1.0, 0.5, -0.3));
+      walk_pose(o.walk, 0.0) *
+      SE3(Eigen::Quaterniond(Eigen::AngleAxisd(-std::numbers::pi / 2, Eigen::Vector3d::UnitY())),
+          Eigen::Vector3d(1.0, 0.5, -0.3));
   const std::vector<Member> first = make_members(o, 0, world_from_camera, rng);
   MultiUserReport report;
-  report.stability = stability_of(totals, first[0].calibration.vr_from_camera, first[1].calibration.vr_from_camera);
+  report.stability = stability_of(totals, first[0].calibration.vr_from_camera,
+                                  first[1].calibration.vr_from_camera);
   report.published = totals.published;
   for (std::size_t i = 0; i < k; ++i) {
     UserError u;

@@ -135,7 +135,8 @@ void decode_message(const std::uint8_t* data, std::size_t size, WireResult& r) {
     decode_get(m.get(), types, r);
   } else if (address == kReloadAddress) {
     if (types != "s") {
-      fail(r, OscError::kWrongTypes, "/coloc/session/reload: type tags '" + types + "', expected 's'");
+      fail(r, OscError::kWrongTypes,
+           "/coloc/session/reload: type tags '" + types + "', expected 's'");
       return;
     }
     SessionMessage out;
@@ -155,7 +156,8 @@ std::uint32_t read_be32(const std::uint8_t* p) {
 void decode_element(const std::uint8_t* data, std::size_t size, int depth, WireResult& r) {
   static constexpr char kBundleTag[] = "#bundle";
   if (size < 8 || size % 4 != 0) {
-    fail(r, OscError::kMalformed, "size " + std::to_string(size) + " is not a positive multiple of 4");
+    fail(r, OscError::kMalformed,
+         "size " + std::to_string(size) + " is not a positive multiple of 4");
     return;
   }
   if (std::memcmp(data, kBundleTag, 8) != 0) {
@@ -204,12 +206,11 @@ std::vector<std::uint8_t> serialise(lo_message m, std::string_view address) {
 
 }  // namespace
 
-WireResult decode_session_packet(const std::uint8_t* data, std::size_t size,
-                                 std::size_t max_size) {
+WireResult decode_session_packet(const std::uint8_t* data, std::size_t size, std::size_t max_size) {
   WireResult r;
   if (size > max_size) {
-    fail(r, OscError::kOversized, "packet of " + std::to_string(size) + " bytes exceeds " +
-                                      std::to_string(max_size));
+    fail(r, OscError::kOversized,
+         "packet of " + std::to_string(size) + " bytes exceeds " + std::to_string(max_size));
     return r;
   }
   decode_element(data, size, 0, r);

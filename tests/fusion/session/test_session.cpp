@@ -29,8 +29,8 @@ struct TwoUsers : ::testing::Test {
   SE3 world_from_camera = pose(std::numbers::pi / 2, {1, 2, 0});
   SE3 vive_from_camera = pose(0.0, {0, 0, 1});
   SE3 quest_from_camera = pose(-std::numbers::pi / 2, {0, -3, 0});
-  Session session{testing::two_user_config(dir, world_from_camera, vive_from_camera,
-                                           quest_from_camera)};
+  Session session{
+      testing::two_user_config(dir, world_from_camera, vive_from_camera, quest_from_camera)};
   std::vector<Output> out;
 };
 

@@ -38,9 +38,8 @@ std::string participants() {
 }
 
 TEST(SessionConfig, FixedAnchorAndParticipants) {
-  const SessionConfig c =
-      parse(std::string("anchor:\n  camera: floor-cam\n  world_from_camera: ") + kPose16 +
-            "\nstale_after: 0.25\n" + participants());
+  const SessionConfig c = parse(std::string("anchor:\n  camera: floor-cam\n  world_from_camera: ") +
+                                kPose16 + "\nstale_after: 0.25\n" + participants());
   EXPECT_EQ(c.anchor.mode, AnchorMode::kFixed);
   EXPECT_EQ(c.anchor.camera, "floor-cam");
   EXPECT_TRUE(c.anchor.world_from_camera.translation().isApprox(Eigen::Vector3d(1, 2, 0.5)));
@@ -62,10 +61,10 @@ TEST(SessionConfig, FixedAnchorAndParticipants) {
 
 TEST(SessionConfig, MarkerOnTheFloorGivesWorldFromCamera) {
   // Marker 2 m in front of the camera (camera_from_marker), marker at (5, 0, 0) in the world.
-  const SessionConfig c =
-      parse("anchor:\n  world_from_marker: [5, 0, 0, 0, 0, 0, 1]\n"
-            "  camera_from_marker: [0, 0, 2, 0, 0, 0, 1]\n" +
-            participants());
+  const SessionConfig c = parse(
+      "anchor:\n  world_from_marker: [5, 0, 0, 0, 0, 0, 1]\n"
+      "  camera_from_marker: [0, 0, 2, 0, 0, 0, 1]\n" +
+      participants());
   EXPECT_TRUE(c.anchor.world_from_camera.translation().isApprox(Eigen::Vector3d(5, 0, -2)));
 }
 
@@ -94,11 +93,13 @@ TEST(SessionConfig, ErrorsNameFileLineAndField) {
   EXPECT_EQ(e.context().field, "participants[1].id");
   e = parse_error(anchor + "participants:\n  - {id: 'a b', kind: vr, calibration: a.yaml}\n");
   EXPECT_EQ(e.context().field, "participants[0].id");
-  e = parse_error(anchor + "participants:\n  - {id: a, kind: vr, calibration: a.yaml, port: 9}\n"
-                           "  - {id: b, kind: vr, calibration: b.yaml, port: 9}\n");
+  e = parse_error(anchor +
+                  "participants:\n  - {id: a, kind: vr, calibration: a.yaml, port: 9}\n"
+                  "  - {id: b, kind: vr, calibration: b.yaml, port: 9}\n");
   EXPECT_EQ(e.context().field, "participants[1].port");
-  e = parse_error(anchor + "participants:\n  - {id: a, kind: vr, calibration: a.yaml, "
-                           "controllers: many}\n");
+  e = parse_error(anchor +
+                  "participants:\n  - {id: a, kind: vr, calibration: a.yaml, "
+                  "controllers: many}\n");
   EXPECT_EQ(e.context().field, "participants[0].controllers");
   e = parse_error("anchor:\n  world_from_camera: [1, 2, 3]\n" + participants());
   EXPECT_EQ(e.context().field, "anchor.world_from_camera");

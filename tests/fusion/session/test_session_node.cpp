@@ -36,8 +36,16 @@ std::vector<std::string> head_args(double time, int seq, double x, double y, dou
   std::ostringstream t;
   t.precision(12);
   t << time;
-  return {t.str(), std::to_string(seq), "1", std::to_string(x), std::to_string(y),
-          std::to_string(z), "0", "0", "0", "1"};
+  return {t.str(),
+          std::to_string(seq),
+          "1",
+          std::to_string(x),
+          std::to_string(y),
+          std::to_string(z),
+          "0",
+          "0",
+          "0",
+          "1"};
 }
 
 struct DumpLine {
@@ -84,19 +92,19 @@ TEST_F(NodeTest, OscsendInOscdumpOutCountersForBadInput) {
   ChildProcess dump({"oscdump", "-L", std::to_string(dump_port)});
   SessionNodeOptions options;
   options.publish = {"osc.udp://127.0.0.1:" + std::to_string(dump_port)};
-  SessionNode node(Session(testing::two_user_config(dir, SE3(), vive_from_camera,
-                                                    quest_from_camera, vive_port)),
-                   options);
+  SessionNode node(
+      Session(testing::two_user_config(dir, SE3(), vive_from_camera, quest_from_camera, vive_port)),
+      options);
   node.start();
   const int shared = node.port();
 
   // Bad input first: none of it may stop the node.
   using coloc::fusion::testing::run;
-  ASSERT_EQ(run(oscsend(shared, "/coloc/xr_pose", "s", {"x"})), 0);                 // wrong types
-  ASSERT_EQ(run(oscsend(shared, "/coloc/elsewhere", "i", {"1"})), 0);              // unknown address
+  ASSERT_EQ(run(oscsend(shared, "/coloc/xr_pose", "s", {"x"})), 0);    // wrong types
+  ASSERT_EQ(run(oscsend(shared, "/coloc/elsewhere", "i", {"1"})), 0);  // unknown address
   auto ghost = head_args(1.0, 1, 0, 0, 0);
   ghost.push_back("ghost");
-  ASSERT_EQ(run(oscsend(shared, "/coloc/xr_pose", "diifffffffs", ghost)), 0);     // unknown user
+  ASSERT_EQ(run(oscsend(shared, "/coloc/xr_pose", "diifffffffs", ghost)), 0);  // unknown user
   ASSERT_EQ(run(oscsend(shared, "/coloc/xr_pose", "diifffffff", head_args(1, 1, 0, 0, 0))), 0);
   ASSERT_TRUE(wait_for([&] {
     const SessionNodeStats s = node.stats();
@@ -126,8 +134,7 @@ TEST_F(NodeTest, OscsendInOscdumpOutCountersForBadInput) {
   EXPECT_DOUBLE_EQ(got.time, 5.0);
 
   // On demand: quest's poses sent to oscdump's port.
-  ASSERT_EQ(run(oscsend(shared, "/coloc/get_pose", "si", {"quest", std::to_string(dump_port)})),
-            0);
+  ASSERT_EQ(run(oscsend(shared, "/coloc/get_pose", "si", {"quest", std::to_string(dump_port)})), 0);
   ASSERT_TRUE(read_until(dump, "/coloc/users/quest/head", -1, got));
   ASSERT_TRUE(wait_for([&] { return node.stats().replies == 1; }));
 
@@ -141,9 +148,9 @@ TEST_F(NodeTest, OscsendInOscdumpOutCountersForBadInput) {
 }
 
 TEST_F(NodeTest, NewCalibrationFileReanchorsWhileRunning) {
-  SessionNode node(Session(testing::two_user_config(dir, SE3(), vive_from_camera,
-                                                    quest_from_camera)),
-                   SessionNodeOptions{});
+  SessionNode node(
+      Session(testing::two_user_config(dir, SE3(), vive_from_camera, quest_from_camera)),
+      SessionNodeOptions{});
   node.start();
   // `coloc handeye solve --output b.yaml` again: the watcher reloads quest, not vive.
   testing::write_calibration(dir / "b.yaml", pose(0.0, {1.1, 0, 0}));
@@ -156,8 +163,8 @@ TEST_F(NodeTest, NewCalibrationFileReanchorsWhileRunning) {
   EXPECT_NEAR(node.snapshot("quest").world_from_vr.translation().x(), -1.1, 1e-12);
 
   // The same on request over OSC.
-  ASSERT_EQ(coloc::fusion::testing::run(oscsend(node.port(), "/coloc/session/reload", "s", {"vive"})),
-            0);
+  ASSERT_EQ(
+      coloc::fusion::testing::run(oscsend(node.port(), "/coloc/session/reload", "s", {"vive"})), 0);
   ASSERT_TRUE(wait_for([&] { return node.reloads().size() >= 2; }));
   EXPECT_EQ(node.snapshot("vive").calibration_version, 1u);
 }
