@@ -244,7 +244,7 @@ SE3 feed(const MultiUserOptions& o, const Member& m, int k, int i, Session& sess
     if (scored)
       totals.controller_position[k].add(
           translation_distance(out.back().pose.pose(), truth.controllers[n]));
-    if (record_locked && n == 0)
+    if (record_locked && n == 0 && k < 2)
       (k == 0 ? totals.locked_a : totals.locked_b).push_back({t, reported});
   }
   const int every = m.model.global_rate > 0.0
