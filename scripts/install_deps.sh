@@ -12,6 +12,7 @@ packages=(
   libsqlite3-dev sqlite3
   libpcl-dev
   liblo-dev liblo-tools
+  libyaml-cpp-dev
   libspdlog-dev libcli11-dev libpugixml-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-numpy python3-matplotlib

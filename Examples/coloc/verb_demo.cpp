@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <opencv2/core.hpp>
 #include <random>
 
@@ -261,6 +262,43 @@ void demo_twin(const DemoArgs& a, const std::filesystem::path& out, int& step) {
   stop_verb(fuse, shown_command(fuse_args));
 }
 
+// A shared session of two VR systems on the twin: each calibrated to the anchor camera by a
+// hand-eye session, the session file checked, the session node started for a moment, and two
+// users walking the twin's building through the session core against the truth.
+void demo_session(const DemoArgs& a, const std::filesystem::path& out, int& step) {
+  step_header(++step,
+              "Shared session: two VR systems calibrated to one anchor camera, placed in "
+              "the twin's frame (coloc session)");
+  const std::filesystem::path dir = out / "session";
+  for (const char* system : {"vive", "quest"}) {
+    const std::string seed = system[0] == 'v' ? "11" : "12";
+    run_verb({"handeye", "simulate", "--out", (dir / system).string(), "--seed", seed});
+    run_verb({"handeye", "solve", "--pairs", (dir / system / "pairs.csv").string(), "--output",
+              (dir / (std::string(system) + ".yaml")).string()});
+  }
+  {
+    std::ofstream yaml(dir / "session.yaml");
+    yaml << "# coloc session description (README, Shared sessions)\n"
+            "anchor:\n  camera: tripod-d455\n  world_from_camera: [1.0, 0.5, 1.3, 0, 0, 0, 1]\n"
+            "stale_after: 0.5\nparticipants:\n"
+            "  - {id: vive, kind: vr, system: HTC VIVE Pro, calibration: vive.yaml}\n"
+            "  - {id: quest, kind: vr, system: Meta Quest 2, calibration: quest.yaml}\n";
+  }
+  const std::string config = (dir / "session.yaml").string();
+  run_verb({"session", "check", config});
+  run_verb({"session", "--config", config, "--duration", "0.5", "--log",
+            (dir / "session_log.csv").string()});
+  const std::filesystem::path walk =
+      out / ("twin_" + a.preset) / "headset" / "headset_groundtruth.txt";
+  std::vector<std::string> sim = {"bench",    "session", "--accuracy", "--users", "2",
+                                  "--trials", "1",       "--duration", "20"};
+  if (!a.skip_twin && std::filesystem::exists(walk)) {
+    sim.push_back("--walk");
+    sim.push_back(walk.string());
+  }
+  run_verb(sim);
+}
+
 // SLAM on a real recording (TUM fr1/xyz) with its motion-capture ground truth.
 void demo_real_slam(const std::filesystem::path& data, const std::filesystem::path& out,
                     int& step) {
@@ -312,6 +350,7 @@ void run_demo(const DemoArgs& a) {
   demo_real_slam(data, out, step);
   demo_handeye(out, step);
   demo_fusion(step);
+  demo_session(a, out, step);
   std::printf("\ncoloc demo: done; outputs in %s\n", std::filesystem::absolute(out).c_str());
 }
 

@@ -27,6 +27,9 @@ void add_markers_verb(CLI::App& app, CLI::App& bench);
 void add_twin_verb(CLI::App& app, CLI::App& bench);
 void add_handeye_verb(CLI::App& app, CLI::App& bench);
 void add_fuse_verb(CLI::App& app, CLI::App& bench);
+// `coloc session ...` and `coloc bench session` (verb_session.cpp, verb_session_bench.cpp).
+void add_session_verb(CLI::App& app, CLI::App& bench);
+void add_session_bench(CLI::App& bench);
 // `coloc register` (verb_register.cpp).
 void add_register_verb(CLI::App& app);
 

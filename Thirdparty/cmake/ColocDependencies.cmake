@@ -28,6 +28,7 @@ add_library(coloc_pcl INTERFACE)
 target_include_directories(coloc_pcl SYSTEM INTERFACE ${PCL_INCLUDE_DIRS})
 target_link_libraries(coloc_pcl INTERFACE ${PCL_LIBRARIES})
 add_library(coloc::pcl ALIAS coloc_pcl)
+coloc_require_package(yaml-cpp libyaml-cpp-dev)
 
 # liblo and OSMesa ship only pkg-config files on Debian.
 pkg_check_modules(LIBLO IMPORTED_TARGET liblo>=0.31)

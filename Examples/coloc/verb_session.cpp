@@ -1,0 +1,288 @@
+// coloc session: several users of different XR systems in one scanned frame (fusion/session);
+// coloc session check|stability; coloc bench session (loopback latency, multi-user accuracy).
+
+#include <signal.h>
+#include <spdlog/spdlog.h>
+
+#include <cstdio>
+#include <ctime>
+#include <fstream>
+#include <memory>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "Examples/coloc/cli_common.hpp"
+#include "Examples/coloc/verbs.hpp"
+#include "fusion/session/bench.hpp"
+#include "fusion/session/log.hpp"
+#include "fusion/session/node.hpp"
+#include "fusion/session/simulate.hpp"
+#include "slam/core/error.hpp"
+#include "slam/core/trajectory.hpp"
+#include "slam/mapdb/atomic_file.hpp"
+
+namespace coloc::cli {
+namespace {
+
+namespace fs = fusion::session;
+constexpr double kDeg = 180.0 / std::numbers::pi;
+
+struct SessionArgs {
+  std::string config;
+  int listen = 0;
+  std::string bind = "127.0.0.1";
+  std::vector<std::string> publish;
+  std::string log;
+  double duration = 0.0;
+  bool no_watch = false;
+  bool json = false;
+};
+
+// Blocks SIGINT/SIGTERM and waits for one (or `duration` seconds) synchronously: no handler.
+void wait_for_signal(double duration) {
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  if (duration > 0.0) {
+    timespec timeout{};
+    timeout.tv_sec = static_cast<time_t>(duration);
+    timeout.tv_nsec = static_cast<long>((duration - static_cast<double>(timeout.tv_sec)) * 1e9);
+    sigtimedwait(&signals, nullptr, &timeout);
+  } else {
+    int received = 0;
+    sigwait(&signals, &received);
+  }
+}
+
+Json stats_json(const fs::SessionNodeStats& s) {
+  const fs::SessionStats& c = s.session;
+  return {{"head_poses", c.head_poses},
+          {"controller_poses", c.controller_poses},
+          {"global_poses", c.global_poses},
+          {"anchor_poses", c.anchor_poses},
+          {"published", c.published},
+          {"sent", s.sent},
+          {"replies", s.replies},
+          {"stale_events", c.stale_events},
+          {"reloads", c.reloads},
+          {"reload_failures", c.reload_failures},
+          {"dropped",
+           {{"unknown_participant", c.unknown_participant},
+            {"untagged", s.untagged},
+            {"bad_controller", c.bad_controller},
+            {"out_of_order", c.out_of_order},
+            {"waiting_for_anchor", c.waiting_for_anchor},
+            {"malformed", s.wire.malformed},
+            {"oversized", s.wire.oversized},
+            {"unknown_address", s.wire.unknown_address},
+            {"wrong_types", s.wire.wrong_types},
+            {"invalid_values", s.wire.invalid_values}}}};
+}
+
+void print_stats(const fs::SessionNodeStats& s, bool json) {
+  if (json) {
+    print_json(stats_json(s));
+    return;
+  }
+  const fs::SessionStats& c = s.session;
+  std::printf(
+      "inputs: head %llu, controller %llu, global %llu, anchor %llu; published %llu (sent %llu), "
+      "replies %llu, stale %llu, reloads %llu (failed %llu)\n",
+      static_cast<unsigned long long>(c.head_poses),
+      static_cast<unsigned long long>(c.controller_poses),
+      static_cast<unsigned long long>(c.global_poses),
+      static_cast<unsigned long long>(c.anchor_poses), static_cast<unsigned long long>(c.published),
+      static_cast<unsigned long long>(s.sent), static_cast<unsigned long long>(s.replies),
+      static_cast<unsigned long long>(c.stale_events), static_cast<unsigned long long>(c.reloads),
+      static_cast<unsigned long long>(c.reload_failures));
+  std::printf(
+      "dropped: unknown participant %llu, untagged %llu, bad controller %llu, old sequence %llu, "
+      "before the anchor %llu, malformed %llu, oversized %llu, unknown address %llu, wrong types "
+      "%llu, invalid values %llu\n",
+      static_cast<unsigned long long>(c.unknown_participant),
+      static_cast<unsigned long long>(s.untagged),
+      static_cast<unsigned long long>(c.bad_controller),
+      static_cast<unsigned long long>(c.out_of_order),
+      static_cast<unsigned long long>(c.waiting_for_anchor),
+      static_cast<unsigned long long>(s.wire.malformed),
+      static_cast<unsigned long long>(s.wire.oversized),
+      static_cast<unsigned long long>(s.wire.unknown_address),
+      static_cast<unsigned long long>(s.wire.wrong_types),
+      static_cast<unsigned long long>(s.wire.invalid_values));
+  if (!s.wire.last_error.empty())
+    std::printf("last dropped packet: %s\n", s.wire.last_error.c_str());
+}
+
+void log_config(const fs::Session& session) {
+  const fs::SessionConfig& c = session.config();
+  spdlog::info("session: anchor camera '{}' ({}), stale after {} s, {} participant(s)",
+               c.anchor.camera,
+               c.anchor.mode == fs::AnchorMode::kFixed
+                   ? "fixed"
+                   : "localized on port " + std::to_string(c.anchor.localize_port),
+               c.stale_after, c.participants.size());
+  for (const fs::ParticipantConfig& p : c.participants) {
+    const SE3 w = session.snapshot(p.id).world_from_vr;
+    spdlog::info(
+        "  {} ({}, {}): calibration {}, {} controller(s), port {}, drift correction {}; "
+        "world_from_vr t = ({:.3f}, {:.3f}, {:.3f})",
+        p.id, fs::to_string(p.kind), p.system.empty() ? "-" : p.system, p.calibration.string(),
+        p.controllers, p.port > 0 ? std::to_string(p.port) : "shared", p.drift_correction,
+        w.translation().x(), w.translation().y(), w.translation().z());
+  }
+}
+
+void run_session(const SessionArgs& a) {
+  fs::Session session(fs::read_session_config(a.config));
+  log_config(session);
+  fs::SessionNodeOptions options;
+  options.bind_address = a.bind;
+  options.port = a.listen;
+  options.publish = a.publish;
+  options.watch_calibrations = !a.no_watch;
+  std::unique_ptr<slam::mapdb::AtomicFile> log_file;
+  std::ofstream log;
+  fs::LogSink sink;
+  if (!a.log.empty()) {
+    log_file = std::make_unique<slam::mapdb::AtomicFile>(a.log);
+    log.open(log_file->temp_path());
+    fs::write_log_header(log);
+    sink = [&log](const fs::LogRecord& r) { fs::write_log_record(log, r); };
+  }
+  // Signals blocked before the node's thread starts, so only wait_for_signal takes them.
+  sigset_t signals, previous;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, &previous);
+  struct sigaction default_action {};
+  default_action.sa_handler = SIG_DFL;
+  sigaction(SIGINT, &default_action, nullptr);  // background jobs start with SIGINT ignored
+  fs::SessionNodeStats stats;
+  {
+    fs::SessionNode node(std::move(session), options, sink);
+    node.start();
+    spdlog::info(
+        "session: OSC in on udp {}:{}, /coloc/users/<id>/... out to {} target(s); Ctrl-C "
+        "to stop",
+        a.bind, node.port(), a.publish.size());
+    wait_for_signal(a.duration);
+    node.stop();
+    stats = node.stats();
+  }
+  pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+  if (log_file) {
+    log.close();
+    if (!log) throw Error("cannot write the session log", ErrorContext{.file = a.log});
+    log_file->commit();
+  }
+  print_stats(stats, a.json);
+}
+
+void run_check(const std::string& config, bool json) {
+  fs::Session session(fs::read_session_config(config));
+  if (!json) {
+    log_config(session);
+    std::printf("%s: %zu participant(s), calibrations readable\n", config.c_str(),
+                session.config().participants.size());
+    return;
+  }
+  Json users = Json::array();
+  for (const fs::ParticipantConfig& p : session.config().participants) {
+    users.push_back({{"id", p.id},
+                     {"kind", fs::to_string(p.kind)},
+                     {"world_from_vr", json_row_major(session.snapshot(p.id).world_from_vr.matrix())}});
+  }
+  print_json({{"participants", users}});
+}
+
+struct StabilityArgs {
+  std::string config, log, a, b;
+  double max_dt = 0.01;
+  bool json = false;
+};
+
+std::pair<std::string, int> device_of(const std::string& text) {
+  const auto colon = text.rfind(':');
+  if (colon == std::string::npos) return {text, 0};
+  return {text.substr(0, colon), std::stoi(text.substr(colon + 1))};
+}
+
+// The paper's Table 2: mean, mean absolute and RMS deviation, and the RMS deviation relative to
+// the mean.
+void print_stability(const fs::StabilityRow& r, bool json) {
+  if (json) {
+    print_json({{"poses", r.poses},
+                {"rotation_mean_deg", r.rotation_mean * kDeg},
+                {"rotation_mean_abs_deg", r.rotation_mean_abs * kDeg},
+                {"rotation_rms_deg", r.rotation_rms * kDeg},
+                {"translation_mean_m", r.translation_mean},
+                {"translation_mean_abs_m", r.translation_mean_abs},
+                {"translation_rms_m", r.translation_rms}});
+    return;
+  }
+  std::printf("locked controllers, %zu paired poses (An et al. 2023, Table 2)\n", r.poses);
+  std::printf("| | mean mu | delta_ave | delta_rms | delta_rms / mu |\n|---|---|---|---|---|\n");
+  std::printf("| rotation | %.3f deg | %.3f deg | %.3f deg | %.2f %% |\n", r.rotation_mean * kDeg,
+              r.rotation_mean_abs * kDeg, r.rotation_rms * kDeg,
+              100.0 * r.rotation_rms / r.rotation_mean);
+  std::printf("| translation | %.2f mm | %.2f mm | %.2f mm | %.2f %% |\n", r.translation_mean * 1e3,
+              r.translation_mean_abs * 1e3, r.translation_rms * 1e3,
+              100.0 * r.translation_rms / r.translation_mean);
+}
+
+void run_stability(const StabilityArgs& s) {
+  const fs::SessionConfig config = fs::read_session_config(s.config);
+  const auto [a, na] = device_of(s.a);
+  const auto [b, nb] = device_of(s.b);
+  print_stability(fs::locked_stability(fs::read_session_log(s.log), config, a, na, b, nb, s.max_dt),
+                  s.json);
+}
+
+}  // namespace
+
+void add_session_verb(CLI::App& app, CLI::App& bench) {
+  auto a = std::make_shared<SessionArgs>();
+  CLI::App& cmd = *app.add_subcommand(
+      "session", "Several users of different XR systems in one scanned frame (OSC node)");
+  cmd.require_subcommand(0, 1);
+  cmd.add_option("--config", a->config, "Session description (YAML, see README)")
+      ->check(CLI::ExistingFile);
+  cmd.add_option("--listen", a->listen, "Shared UDP port (0: any free one)")->capture_default_str();
+  cmd.add_option("--bind", a->bind, "Address to bind (0.0.0.0: every interface)")
+      ->capture_default_str();
+  cmd.add_option("--publish", a->publish, "osc.udp://HOST:PORT targets of /coloc/users/...");
+  cmd.add_option("--log", a->log, "Session log (CSV of every input; for `session stability`)");
+  cmd.add_option("--duration", a->duration, "Stop after S seconds (0: at Ctrl-C)");
+  cmd.add_flag("--no-watch", a->no_watch, "Do not reload calibration files when they change");
+  cmd.add_flag("--json", a->json, "Statistics at exit as JSON");
+  cmd.callback([a, &cmd] {
+    if (cmd.get_subcommands().empty()) {
+      if (a->config.empty()) throw CLI::RequiredError("--config");
+      run_session(*a);
+    }
+  });
+
+  auto check = std::make_shared<std::pair<std::string, bool>>();
+  CLI::App& c = *cmd.add_subcommand("check", "Validate a session description, show placements");
+  c.add_option("CONFIG", check->first)->required()->check(CLI::ExistingFile);
+  c.add_flag("--json", check->second);
+  c.callback([check] { run_check(check->first, check->second); });
+
+  auto st = std::make_shared<StabilityArgs>();
+  CLI::App& s = *cmd.add_subcommand("stability", "Two locked controllers from a session log");
+  s.add_option("--config", st->config)->required()->check(CLI::ExistingFile);
+  s.add_option("--log", st->log)->required()->check(CLI::ExistingFile);
+  s.add_option("--a", st->a, "Participant and controller, e.g. vive:0")->required();
+  s.add_option("--b", st->b, "Participant and controller, e.g. quest:0")->required();
+  s.add_option("--max-dt", st->max_dt, "Pairing window on the session clock, s")
+      ->capture_default_str();
+  s.add_flag("--json", st->json);
+  s.callback([st] { run_stability(*st); });
+
+  add_session_bench(bench);
+}
+
+}  // namespace coloc::cli
