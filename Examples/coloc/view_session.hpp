@@ -1,0 +1,91 @@
+#pragma once
+// What `coloc view`, `coloc map --view` and `coloc localize --view` share: the viewer's command
+// line options, the server started from them, keyframe images read from the mapped sequence,
+// and waiting (for a page, for Ctrl-C) without polling.
+#include <CLI/CLI.hpp>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "slam/dataset/sequence.hpp"
+#include "slam/map/map.hpp"
+#include "slam/system/system.hpp"
+#include "slam/view/live_feed.hpp"
+#include "slam/view/server.hpp"
+
+namespace coloc::cli {
+
+struct ViewArgs {
+  bool enabled = false;  // --view (map, localize); always on for `coloc view`
+  int port = 8080;
+  std::string bind = "127.0.0.1";
+  std::filesystem::path web_root;  // empty: the page built with this binary
+  double max_fps = 10.0;           // live frames pushed per second
+  double wait_s = 0.0;   // map/localize: wait this long for a page before the first frame
+  double linger_s = 0.0;  // map/localize: keep serving the final map this long (-1: Ctrl-C)
+};
+
+// --view, --view-port, --view-bind, --view-fps, --view-wait, --view-linger (map, localize).
+void add_live_view_options(CLI::App& verb, ViewArgs& args);
+
+// The server, or (live verbs) nullptr with a warning when it cannot start: a busy port must
+// not cost a mapping run. `required` (coloc view): the error is thrown instead.
+std::unique_ptr<slam::view::ViewServer> start_view_server(const ViewArgs& args,
+                                                          const std::filesystem::path& report,
+                                                          bool required);
+
+// Colour images of a recorded sequence by timestamp (within 1 ms), as JPEG for the keyframe
+// panel. Thread-safe (reads from disk per call).
+class KeyframeImages {
+ public:
+  explicit KeyframeImages(const std::filesystem::path& sequence);
+  std::optional<std::string> jpeg(double timestamp) const;
+
+ private:
+  std::unique_ptr<dataset::Sequence> sequence_;
+  std::map<double, std::size_t> index_;  // timestamp -> frame
+};
+
+// A live view of a running System (`coloc map --view`, `coloc bench view`): attach() before the
+// first frame (the feed observes tracking; keyframe panels read the running map under its
+// lock), finish() once the map is final (the last scene, and a copy of the map the panels read
+// from then on), detach() before the System goes.
+class LiveSystemView {
+ public:
+  // `sequence` (may be empty): keyframe images. `server` must outlive this object.
+  LiveSystemView(slam::view::ViewServer& server, const ViewArgs& args,
+                 const std::filesystem::path& sequence);
+  ~LiveSystemView();
+  void attach(slam::system::System& system);
+  void finish(const slam::system::System& system);
+  void detach();
+  slam::view::LiveFeedStats stats() const;
+
+ private:
+  void serve_images(const std::function<std::optional<double>(std::uint64_t)>& timestamp_of);
+
+  slam::view::ViewServer& server_;
+  ViewArgs args_;
+  std::shared_ptr<KeyframeImages> images_;
+  std::unique_ptr<slam::view::LiveFeed> feed_;
+  slam::system::System* system_ = nullptr;
+  std::shared_ptr<const slam::map::Map> final_map_;
+  slam::view::LiveFeedStats stats_;  // of the feed, kept after detach()
+};
+
+// After a live run: logs what the viewer did, then keeps serving the final map `seconds` (< 0:
+// until Ctrl-C).
+void linger(const slam::view::ViewServer& server, const LiveSystemView& live, double seconds);
+
+// Waits until a page is connected or `seconds` passed (logs what it waits for).
+void wait_for_page(const slam::view::ViewServer& server, double seconds);
+
+// Blocks SIGINT/SIGTERM in this thread (threads started afterwards inherit it) so that
+// wait_for_signal() takes them synchronously.
+void block_stop_signals();
+// Waits for SIGINT/SIGTERM, at most `seconds` (< 0: no limit).
+void wait_for_signal(double seconds);
+
+}  // namespace coloc::cli
