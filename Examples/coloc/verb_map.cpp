@@ -145,7 +145,7 @@ void run_map(const MapArgs& given) {
                 << r.ate_keyframes->translation.count << " keyframes\n";
     std::cout << "trajectory: " << args.trajectory.string() << "\n";
   }
-  if (live) linger(*server, *live, args.view.linger_s);
+  if (live) linger(*server, live->stats(), args.view.linger_s);
 }
 
 void run_bench(const MapArgs& args) {

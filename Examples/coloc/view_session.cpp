@@ -202,8 +202,8 @@ slam::view::LiveFeedStats LiveSystemView::stats() const {
 
 namespace coloc::cli {
 
-void linger(const slam::view::ViewServer& server, const LiveSystemView& live, double seconds) {
-  const slam::view::LiveFeedStats f = live.stats();
+void linger(const slam::view::ViewServer& server, const slam::view::LiveFeedStats& f,
+            double seconds) {
   const slam::view::ViewServerStats s = server.stats();
   spdlog::info(
       "viewer: {} frames offered, {} published, {} map snapshots (longest {:.2f} ms under the map "
@@ -214,6 +214,73 @@ void linger(const slam::view::ViewServer& server, const LiveSystemView& live, do
   spdlog::info("serving the final map at {} {}", server.url(),
                seconds < 0.0 ? std::string("until Ctrl-C") : "for " + std::to_string(seconds) + " s");
   wait_for_signal(seconds);
+}
+
+}  // namespace coloc::cli
+
+namespace coloc::cli {
+
+LiveLocalizationView::LiveLocalizationView(slam::view::ViewServer& server, const ViewArgs& args,
+                                           const slam::map::Map& map, std::mutex& mutex,
+                                           const std::string& frame, const fs::path& sequence) {
+  slam::view::MapScene scene;
+  {
+    std::lock_guard lock(mutex);
+    scene = slam::view::scene_of(map);
+  }
+  scene.frame = frame;
+  server.set_info(Json{{"mode", "live localization"}, {"map", sequence.filename().string()}, {"live", true}}.dump());
+  server.set_scene(slam::view::scene_json(scene, 1), 1);
+  server.set_keyframe_source([&map, &mutex](std::uint64_t id) {
+    std::lock_guard lock(mutex);
+    return slam::view::keyframe_json(map, id);
+  });
+  if (!sequence.empty()) {
+    images_ = std::make_shared<KeyframeImages>(sequence);
+    server.set_keyframe_image_source(
+        [images = images_, &map, &mutex](std::uint64_t id) -> std::optional<std::string> {
+          std::optional<double> t;
+          {
+            std::lock_guard lock(mutex);
+            if (const auto* kf = map.keyframe(KeyframeId(id))) t = kf->frame.timestamp;
+          }
+          return t ? images->jpeg(*t) : std::nullopt;
+        });
+  }
+  slam::view::LiveFeedOptions options;
+  options.max_fps = args.max_fps;
+  feed_ = std::make_unique<slam::view::LiveFeed>(server, options);
+  wait_for_page(server, args.wait_s);
+}
+
+void LiveLocalizationView::offer(const cv::Mat& image, bool rgb, std::uint64_t index,
+                                 double timestamp, slam::system::ObservedState state,
+                                 const SE3& world_from_cam, int inliers, double ms,
+                                 const slam::frame::Frame* frame) {
+  if (!feed_ || !feed_->wants_frame(timestamp)) return;
+  slam::system::FrameSnapshot s;
+  s.index = index;
+  s.timestamp = timestamp;
+  s.state = state;
+  s.world_from_cam = world_from_cam;
+  s.inliers = inliers;
+  s.track_ms = ms;
+  if (state != slam::system::ObservedState::kLost && frame != nullptr)
+    slam::system::fill_keypoints(*frame, s);
+  s.image = image.clone();
+  s.rgb = rgb;
+  feed_->on_frame(std::move(s));
+}
+
+void LiveLocalizationView::finish() {
+  if (!feed_) return;
+  feed_->stop();
+  stats_ = feed_->stats();
+  feed_.reset();
+}
+
+slam::view::LiveFeedStats LiveLocalizationView::stats() const {
+  return feed_ ? feed_->stats() : stats_;
 }
 
 }  // namespace coloc::cli

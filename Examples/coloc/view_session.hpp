@@ -77,7 +77,8 @@ class LiveSystemView {
 
 // After a live run: logs what the viewer did, then keeps serving the final map `seconds` (< 0:
 // until Ctrl-C).
-void linger(const slam::view::ViewServer& server, const LiveSystemView& live, double seconds);
+void linger(const slam::view::ViewServer& server, const slam::view::LiveFeedStats& feed,
+            double seconds);
 
 // Waits until a page is connected or `seconds` passed (logs what it waits for).
 void wait_for_page(const slam::view::ViewServer& server, double seconds);
@@ -87,5 +88,32 @@ void wait_for_page(const slam::view::ViewServer& server, double seconds);
 void block_stop_signals();
 // Waits for SIGINT/SIGTERM, at most `seconds` (< 0: no limit).
 void wait_for_signal(double seconds);
+
+}  // namespace coloc::cli
+
+namespace coloc::cli {
+
+// A live view of a localization session (`coloc localize --view`): the fixed map served once
+// (scene and keyframe panels read it under its mutex, which localizers share), each localized
+// frame offered to the feed.
+class LiveLocalizationView {
+ public:
+  // `map` and `mutex` must outlive this object; `sequence` (may be empty): keyframe images.
+  LiveLocalizationView(slam::view::ViewServer& server, const ViewArgs& args,
+                       const slam::map::Map& map, std::mutex& mutex, const std::string& frame,
+                       const std::filesystem::path& sequence);
+  // After each frame (the localizer's thread): a snapshot when the feed wants one.
+  void offer(const cv::Mat& image, bool rgb, std::uint64_t index, double timestamp,
+             slam::system::ObservedState state, const SE3& world_from_cam, int inliers,
+             double ms, const slam::frame::Frame* frame);
+  // Stops the feed (the linger serves the map only).
+  void finish();
+  slam::view::LiveFeedStats stats() const;
+
+ private:
+  std::shared_ptr<KeyframeImages> images_;
+  std::unique_ptr<slam::view::LiveFeed> feed_;
+  slam::view::LiveFeedStats stats_;
+};
 
 }  // namespace coloc::cli

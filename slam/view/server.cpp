@@ -199,6 +199,12 @@ ViewServer::ViewServer(ViewServerOptions options) : impl_(std::make_unique<Impl>
   const std::size_t threads = options.max_clients + 4;
   d.http.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
   d.http.set_keep_alive_timeout(2);
+  // httplib's default is SO_REUSEPORT, which lets a second viewer share the port (and split
+  // the pages between them) instead of failing; SO_REUSEADDR only allows a quick restart.
+  d.http.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+  });
   d.routes();
   errno = 0;
   if (options.port == 0) {
