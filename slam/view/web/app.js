@@ -62,9 +62,43 @@ function upAxis() {
   return state.scene && state.scene.frame !== 'slam' ? new THREE.Vector3(0, 0, 1) : new THREE.Vector3(0, -1, 0);
 }
 
-function ramp(t) {  // dark blue -> green -> yellow
+function ramp(t) {  // blue (few) -> green -> orange (many), bright on the dark background
   t = Math.min(1, Math.max(0, t));
-  return [0.27 + 0.7 * t * t, 0.0 + 0.9 * t, 0.33 + 0.3 * Math.sin(Math.PI * t) - 0.2 * t];
+  const c = new THREE.Color().setHSL(0.62 - 0.55 * t, 0.85, 0.6);
+  return [c.r, c.g, c.b];
+}
+
+// The region worth framing: keyframe centres and the 5-95 % range of the points on each axis
+// (a few far points must not shrink the map to a dot).
+function sceneBox(s) {
+  const box = new THREE.Box3();
+  for (const k of s.keyframes) box.expandByPoint(new THREE.Vector3(k.pose[4], k.pose[5], k.pose[6]));
+  const xyz = s.points.xyz, n = xyz.length / 3;
+  if (n >= 20) {
+    const lo = [], hi = [];
+    for (let a = 0; a < 3; ++a) {
+      const v = Array.from({ length: n }, (_, i) => xyz[3 * i + a]).sort((x, y) => x - y);
+      lo.push(v[Math.floor(0.05 * n)]); hi.push(v[Math.floor(0.95 * n)]);
+    }
+    box.expandByPoint(new THREE.Vector3(...lo)); box.expandByPoint(new THREE.Vector3(...hi));
+  }
+  return box;
+}
+
+// Looks at the map from behind the keyframes' mean viewing direction and above.
+function frameView(s, box) {
+  const c = box.getCenter(new THREE.Vector3());
+  const extent = Math.max(0.5, box.getSize(new THREE.Vector3()).length());
+  const dir = new THREE.Vector3();
+  for (const k of s.keyframes) dir.add(new THREE.Vector3(0, 0, 1).applyQuaternion(new THREE.Quaternion(k.pose[0], k.pose[1], k.pose[2], k.pose[3])));
+  if (dir.lengthSq() < 1e-9) dir.set(1, 0, 0);
+  dir.normalize();
+  const up = upAxis();
+  dir.sub(up.clone().multiplyScalar(dir.dot(up))).normalize();
+  camera.up.copy(up);
+  camera.position.copy(c).addScaledVector(dir, -0.9 * extent).addScaledVector(up, 0.6 * extent);
+  controls.target.copy(c);
+  controls.update();
 }
 
 function pointsLayer(s) {
@@ -105,10 +139,9 @@ function markerLayer(markers, colour) {
 
 function buildScene(s) {
   const kfs = s.keyframes, byId = new Map(kfs.map((k) => [k.id, k]));
-  const box = new THREE.Box3();
-  for (const k of kfs) box.expandByPoint(new THREE.Vector3(k.pose[4], k.pose[5], k.pose[6]));
+  const box = sceneBox(s);
   const extent = box.isEmpty() ? 1 : Math.max(0.5, box.getSize(new THREE.Vector3()).length());
-  state.frustumSize = Math.max(0.03, 0.03 * extent);
+  state.frustumSize = Math.max(0.03, 0.025 * extent);
   const fr = [];
   for (const k of kfs) frustumSegments(k.pose, s.camera, state.frustumSize, fr);
   replaceLayer('frusta', lines(fr, 0x4da3ff, 'frusta'));
@@ -128,13 +161,7 @@ function buildScene(s) {
   replaceLayer('scanMarkers', markerLayer(s.scan_markers, 0x2ee6ff));
   if (!state.framed && kfs.length > 0) {
     state.framed = true;
-    const c = box.getCenter(new THREE.Vector3());
-    camera.up.copy(upAxis());
-    const back = new THREE.Vector3(1, 1, 1).normalize().multiplyScalar(0.9 * extent + 1);
-    back.add(upAxis().multiplyScalar(0.6 * extent + 0.5));
-    camera.position.copy(c).add(back);
-    controls.target.copy(c);
-    controls.update();
+    frameView(s, box);
   }
   setCounts({ keyframes: kfs.length, points: s.points.observations.length, slamMarkers: s.slam_markers.length,
               scanMarkers: s.scan_markers.length, loops: s.loop_edges.length, frame: s.frame });
