@@ -58,13 +58,13 @@ def marker_yaml(truth, path):
             v = line.split()
             if not v or line.startswith("#"):
                 continue
-            markers.append((int(v[0]), [float(x) for x in v[1:13]]))
+            markers.append((int(v[0]), float(v[1]), [float(x) for x in v[2:14]]))
     with open(path, "w") as f:
         f.write("%YAML:1.0\n---\nformat: coloc-marker-map\nversion: 1\ndictionary: DICT_4X4_50\n"
                 "frame: global\nmarkers:\n")
-        for mid, c in markers:
-            f.write("   - { id: %d, edge_length: 0.1675, corners: [ %s ] }\n"
-                    % (mid, ", ".join("%.6f" % x for x in c)))
+        for mid, size, c in markers:
+            f.write("   -\n      id: %d\n      edge_length: %.6f\n      corners: [ %s ]\n"
+                    % (mid, size, ", ".join("%.6f" % x for x in c)))
     return len(markers)
 
 
@@ -83,11 +83,22 @@ def saved_map_test(coloc, tmp, artefacts):
     if m.returncode != 0:
         print("map failed:", m.stderr[-2000:])
         return False
-    info = json.loads(run([coloc, "mapdb", "info", db, "--json"]).stdout)
     scan_markers = marker_yaml(os.path.join(twin, "groundtruth", "markers.txt"),
                                os.path.join(tmp, "markers.yaml"))
+    # Registered to the scan's (true) markers: the view then shows both marker sets in one
+    # frame, and the registration's residuals.
+    registered = os.path.join(tmp, "room_scan.db")
+    report = os.path.join(tmp, "report")
+    reg = run([coloc, "register", "--map", db, "--markers", os.path.join(tmp, "markers.yaml"),
+               "--out", registered, "--report", report, "--min-markers", "2", "--json"])
+    if reg.returncode != 0:
+        print("register failed:", reg.stderr[-2000:])
+        return False
+    registration = json.loads(reg.stdout)
+    db = registered
+    info = json.loads(run([coloc, "mapdb", "info", db, "--json"]).stdout)
     view = subprocess.Popen([coloc, "view", db, "--port", "0", "--json", "--sequence", seq,
-                             "--markers", os.path.join(tmp, "markers.yaml")],
+                             "--markers", os.path.join(tmp, "markers.yaml"), "--report", report],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         served = json.loads(view.stdout.readline())
@@ -105,6 +116,10 @@ def saved_map_test(coloc, tmp, artefacts):
                         c["slam_markers"])
             ok &= check("scan markers", c["scan_markers"] == scan_markers > 0, c["scan_markers"])
             ok &= check("scene drawn", p["canvas_colours"] > 8, p["canvas_colours"])
+            ok &= check("scan frame", c["frame"] == "scan", c["frame"])
+            ok &= check("registration residuals", p["registration"]["shown"]
+                        and p["registration"]["markers"] == len(registration["rough"]["markers"]),
+                        p["registration"])
             panel = p["panel"]
             ok &= check("clicked keyframe shown", panel["id"] == p["clicked"] == panel["selected"])
             ok &= check("its image", panel["loaded"] == str(p["clicked"])
@@ -174,7 +189,7 @@ def live_test(coloc, data, tmp, artefacts):
         ok &= check("pose advances", len(poses) >= 2 and moved > 0.005, moved)
         ok &= check("keypoints pushed", max(f["keypoints"] for f in frames) > 100)
         ok &= check("no page errors", not p["page_errors"], p["page_errors"])
-        ok &= check("final map on the page", p["counts"]["keyframes"] > 0, p["counts"])
+        ok &= check("the growing map on the page", p["counts"]["keyframes"] > 0, p["counts"])
     summary = json.loads(out) if out.strip() else {}
     ok &= check("the run is complete", summary.get("frames") == reference_frames, summary)
     gone = re.search(r"(\d+) pages \((\d+) gone\)", err)

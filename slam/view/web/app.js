@@ -253,7 +253,7 @@ function pick(event) {
   const fr = [];
   frustumSegments(best.pose, state.scene.camera, 1.3 * state.frustumSize, fr);
   replaceLayer('selected', lines(fr, 0xffe14d));
-  showKeyframe(best.id, state.registration);
+  showKeyframe(best.id, state.registration, best);
 }
 
 let down = null;

@@ -47,7 +47,8 @@ export function showLive(f) {
   img.src = '/api/live/image.jpg?i=' + f.index;
 }
 
-export async function showKeyframe(id, registration) {
+// `summary`: the keyframe as the scene lists it (its residual against the scan's markers).
+export async function showKeyframe(id, registration, summary) {
   $('keyframe').hidden = false;
   $('kf-id').textContent = id;
   const r = await fetch('/api/keyframe/' + id);
@@ -56,7 +57,9 @@ export async function showKeyframe(id, registration) {
   const tracked = [...k.tracked].filter((c) => c === '1').length;
   $('kf-info').innerHTML = `t <b>${k.t.toFixed(3)}</b> keypoints <b>${k.keypoints.length / 2}</b> ` +
     `with a map point <b id="kf-tracked">${tracked}</b> markers <b id="kf-markers">${k.markers.map((m) => m.id).join(', ') || 'none'}</b><br>` +
-    `reprojection RMS <b>${fmt(k.residual_px)}</b> px &middot; position <b>${k.pose.slice(4).map((v) => v.toFixed(3)).join(', ')}</b>`;
+    `reprojection RMS <b>${fmt(k.residual_px)}</b> px` +
+    (summary && summary.marker_residual_px >= 0 ? ` &middot; scan marker corners <b id="kf-marker-residual">${fmt(summary.marker_residual_px)}</b> px` : '') +
+    ` &middot; position <b>${k.pose.slice(4).map((v) => v.toFixed(3)).join(', ')}</b>`;
   const img = $('kf-image');
   const draw = () => drawFeatures($('kf-overlay'), k.width, k.height, k.keypoints, k.tracked, k.markers);
   img.onload = () => { img.dataset.loaded = id; draw(); };

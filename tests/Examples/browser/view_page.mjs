@@ -77,17 +77,23 @@ async function saved(page) {
     for (let i = 0; i < d.length; i += 4) seen.add(d[i] << 16 | d[i + 1] << 8 | d[i + 2]);
     return seen.size;
   });
-  return { counts, clicked: target.id, panel, canvas_colours: drawn };
+  const registration = await page.evaluate(() => ({
+    shown: !document.getElementById('registration').hidden,
+    markers: Math.max(0, document.querySelectorAll('#reg-markers tr').length - 1) }));
+  return { counts, clicked: target.id, panel, canvas_colours: drawn, registration };
 }
 
 async function live(page, seconds) {
   await page.goto(url);
   const frames = [];
   const end = Date.now() + 1000 * seconds;
-  // Sample what the live panel shows; leave (close the browser while the stream is open) after
-  // 6 frames, or 3 s after the last new frame when the run ended sooner.
+  // Sample what the live panel shows; leave (close the browser while the stream is open) once
+  // 6 frames and the growing map have arrived, or 3 s after the last new frame when the run
+  // ended sooner.
   let lastIndex = null, lastChange = Date.now();
-  while (Date.now() < end && frames.length < 6 && !(frames.length > 0 && Date.now() - lastChange > 3000)) {
+  const mapShown = async () => Number(await text(page, 'count-keyframes')) > 0;
+  while (Date.now() < end && !(frames.length >= 6 && await mapShown()) &&
+         !(frames.length > 0 && Date.now() - lastChange > 3000)) {
     const f = await page.evaluate(() => window.colocView && window.colocView.state.live &&
       { index: window.colocView.state.live.index, state: window.colocView.state.live.state,
         pose: window.colocView.state.live.pose,
