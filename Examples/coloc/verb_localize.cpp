@@ -301,8 +301,8 @@ void run_localize(const LocalizeArgs& args) {
   if (args.view.enabled) view_server = start_view_server(args.view, {}, false);
   if (view_server)
     view = std::make_unique<LiveLocalizationView>(*view_server, args.view, in.map->shared.map,
-                                                  in.map->shared.mutex,
-                                                  in.map->metadata.frame_name, args.sequence);
+                                                  in.map->shared.mutex, in.map->metadata.frame_name,
+                                                  args.sequence);
   std::uint64_t frame_index = 0;
   SessionTotals totals;
   std::int32_t sequence_number = 0;

@@ -60,14 +60,16 @@ std::string scan_binary(const fs::path& e57, double voxel) {
   options.voxel_size = voxel;
   registration::align::ScanCloudStats stats;
   RowProgress progress("reading the scan", false);
-  const auto cloud = registration::align::load_scan_cloud(e57, options, &stats, progress.callback());
+  const auto cloud =
+      registration::align::load_scan_cloud(e57, options, &stats, progress.callback());
   progress.finish();
   const auto n = static_cast<std::uint32_t>(cloud.points.size());
   std::string out(4 + 15 * static_cast<std::size_t>(n), '\0');
   std::memcpy(out.data(), &n, 4);
   for (std::uint32_t i = 0; i < n; ++i) {
     std::memcpy(out.data() + 4 + 12 * static_cast<std::size_t>(i), cloud.points[i].data(), 12);
-    std::memcpy(out.data() + 4 + 12 * static_cast<std::size_t>(n) + 3 * i, cloud.colours[i].data(), 3);
+    std::memcpy(out.data() + 4 + 12 * static_cast<std::size_t>(n) + 3 * i, cloud.colours[i].data(),
+                3);
   }
   spdlog::info("scan: {} points read, {} shown ({} m voxels)", stats.points_read, n, voxel);
   return out;
@@ -129,17 +131,19 @@ void run_view(const StaticViewArgs& a) {
   if (!a.sequence.empty()) images = std::make_unique<KeyframeImages>(a.sequence);
 
   const auto server = start_view_server(a.view, a.report, true);
-  server->set_info(Json{{"mode", "saved map"}, {"map", a.map.filename().string()}, {"live", false}}.dump());
+  server->set_info(
+      Json{{"mode", "saved map"}, {"map", a.map.filename().string()}, {"live", false}}.dump());
   server->set_scene(view::scene_json(scene, 1), 1);
   server->set_scan(scan);
   server->set_registration(registration_of(loaded.metadata, a.report));
   const slam::map::Map& map = loaded.map;  // read-only from here: the server threads share it
   server->set_keyframe_source([&map](std::uint64_t id) { return view::keyframe_json(map, id); });
   if (images) {
-    server->set_keyframe_image_source([&map, &images](std::uint64_t id) -> std::optional<std::string> {
-      const auto* kf = map.keyframe(KeyframeId(id));
-      return kf ? images->jpeg(kf->frame.timestamp) : std::nullopt;
-    });
+    server->set_keyframe_image_source(
+        [&map, &images](std::uint64_t id) -> std::optional<std::string> {
+          const auto* kf = map.keyframe(KeyframeId(id));
+          return kf ? images->jpeg(kf->frame.timestamp) : std::nullopt;
+        });
   }
   if (a.json) {
     print_json({{"url", server->url()},

@@ -35,6 +35,7 @@ const char* mode_name(Mode m) {
 struct ModeResult {
   SampleStats ms;
   slam::view::LiveFeedStats feed;
+  HookStats hook;
   slam::view::EventClientStats page;
   std::uint64_t dropped = 0;  // events dropped for the page
 };
@@ -59,12 +60,15 @@ ModeResult run_mode(const ViewBenchArgs& a, const SlamInputs& in,
     };
     run.on_stop = [&] { live->detach(); };
   }
-  const RunResult r = run_slam(*in.sequence, in.settings, vocabulary, run,
-                               [&](const slam::system::System& s) {
-                                 if (live) live->finish(s);
-                               });
+  const RunResult r =
+      run_slam(*in.sequence, in.settings, vocabulary, run, [&](const slam::system::System& s) {
+        if (live) live->finish(s);
+      });
   out.ms = r.summary.total_ms;
-  if (live) out.feed = live->stats();
+  if (live) {
+    out.feed = live->stats();
+    out.hook = live->hook();
+  }
   if (page) {
     out.page = page->stats();
     page->disconnect();
@@ -79,23 +83,30 @@ void run_bench(const ViewBenchArgs& a) {
   std::printf("sequence %s (%zu frames), %s mapping, live view at most %.1f frames/s\n",
               a.sequence.string().c_str(), in.sequence->size(),
               a.sequential ? "sequential" : "concurrent", a.view.max_fps);
-  std::printf("%4s %-16s %9s %9s %9s %8s %8s %8s %10s %10s %8s\n", "run", "mode", "ms_med",
-              "ms_p99", "ms_max", "pushed", "maps", "page_fr", "map_lk_ms", "encode_ms",
-              "dropped");
+  std::printf("%4s %-16s %7s %7s %7s %8s %8s %9s %6s %5s %7s %9s %9s %7s\n", "run", "mode",
+              "ms_med", "ms_p99", "ms_max", "hook_us", "hook_max", "hook_wall", "pushed", "maps",
+              "page_fr", "map_lk_ms", "encode_ms", "dropped");
   Json rows = Json::array();
   for (int run = 0; run < a.runs; ++run) {
     for (Mode mode : {Mode::kOff, Mode::kIdle, Mode::kConnected}) {
       const ModeResult m = run_mode(a, in, vocabulary, mode);
-      std::printf("%4d %-16s %9.2f %9.2f %9.2f %8llu %8llu %8llu %10.2f %10.2f %8llu\n", run + 1,
-                  mode_name(mode), m.ms.median, m.ms.p99, m.ms.max,
-                  static_cast<unsigned long long>(m.feed.frames_published),
-                  static_cast<unsigned long long>(m.feed.map_snapshots),
-                  static_cast<unsigned long long>(m.page.frames), m.feed.max_map_copy_ms,
-                  m.feed.max_encode_ms, static_cast<unsigned long long>(m.dropped));
+      const double hook_us =
+          m.hook.frames ? 1e3 * m.hook.cpu_total_ms / static_cast<double>(m.hook.frames) : 0.0;
+      std::printf(
+          "%4d %-16s %7.2f %7.2f %7.2f %8.1f %8.1f %9.1f %6llu %5llu %7llu %9.2f %9.2f %7llu\n",
+          run + 1, mode_name(mode), m.ms.median, m.ms.p99, m.ms.max, hook_us,
+          1e3 * m.hook.cpu_max_ms, 1e3 * m.hook.max_ms,
+          static_cast<unsigned long long>(m.feed.frames_published),
+          static_cast<unsigned long long>(m.feed.map_snapshots),
+          static_cast<unsigned long long>(m.page.frames), m.feed.max_map_copy_ms,
+          m.feed.max_encode_ms, static_cast<unsigned long long>(m.dropped));
       rows.push_back({{"run", run + 1},
                       {"mode", mode_name(mode)},
                       {"ms_per_frame_median", m.ms.median},
                       {"ms_per_frame_p99", m.ms.p99},
+                      {"hook_us_mean", hook_us},
+                      {"hook_us_max", 1e3 * m.hook.cpu_max_ms},
+                      {"hook_wall_us_max", 1e3 * m.hook.max_ms},
                       {"frames_pushed", m.feed.frames_published},
                       {"page_frames", m.page.frames},
                       {"map_snapshots", m.feed.map_snapshots},
@@ -103,9 +114,16 @@ void run_bench(const ViewBenchArgs& a) {
     }
   }
   std::printf(
-      "ms: tracking thread per frame (extraction + tracking); pushed: frames the feed sent; maps:\n"
+      "ms: tracking thread per frame (extraction + tracking, wall time); hook_us / hook_max: mean "
+      "/\n"
+      "longest CPU microseconds per frame the tracking thread spent in the viewer's hook (the "
+      "frame\n"
+      "snapshot included), hook_wall: longest wall time in it (preemption included); pushed: "
+      "frames\n"
+      "the feed sent; maps:\n"
       "map snapshots; page_fr: frames the page received; map_lk_ms: longest map copy (map lock\n"
-      "held); encode_ms: longest JPEG encoding (feed thread); dropped: events dropped for the page\n");
+      "held); encode_ms: longest JPEG encoding (feed thread); dropped: events dropped for the "
+      "page\n");
   if (a.json) print_json(rows);
 }
 
@@ -113,8 +131,8 @@ void run_bench(const ViewBenchArgs& a) {
 
 void add_view_bench_verb(CLI::App& bench) {
   auto a = std::make_shared<ViewBenchArgs>();
-  CLI::App* cmd =
-      bench.add_subcommand("view", "Tracking ms/frame without a viewer, with one, with a page open");
+  CLI::App* cmd = bench.add_subcommand(
+      "view", "Tracking ms/frame without a viewer, with one, with a page open");
   cmd->add_option("sequence", a->sequence, "Sequence folder")
       ->required()
       ->check(CLI::ExistingDirectory);

@@ -3,11 +3,13 @@
 #include <signal.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <opencv2/imgcodecs.hpp>
 
 #include "Examples/coloc/cli_common.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/timing.hpp"
 
 namespace coloc::cli {
 
@@ -68,7 +70,8 @@ std::optional<std::string> KeyframeImages::jpeg(double timestamp) const {
 void wait_for_page(const slam::view::ViewServer& server, double seconds) {
   if (seconds <= 0.0) return;
   spdlog::info("waiting up to {} s for a page at {}", seconds, server.url());
-  if (!server.wait_for_client(seconds)) spdlog::warn("no page after {} s: starting anyway", seconds);
+  if (!server.wait_for_client(seconds))
+    spdlog::warn("no page after {} s: starting anyway", seconds);
 }
 
 namespace {
@@ -117,11 +120,37 @@ void wait_for_signal(double seconds) {
 
 namespace coloc::cli {
 
+bool TimedObserver::wants_frame(double timestamp) {
+  start_ = std::chrono::steady_clock::now();
+  start_cpu_s_ = thread_cpu_seconds();
+  const bool wanted = inner_.wants_frame(timestamp);
+  if (!wanted) add();
+  return wanted;
+}
+
+void TimedObserver::on_frame(slam::system::FrameSnapshot snapshot) {
+  inner_.on_frame(std::move(snapshot));
+  ++stats_.taken;
+  add();
+}
+
+void TimedObserver::add() {
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count();
+  const double cpu_ms = 1e3 * (thread_cpu_seconds() - start_cpu_s_);
+  ++stats_.frames;
+  stats_.total_ms += ms;
+  stats_.max_ms = std::max(stats_.max_ms, ms);
+  stats_.cpu_total_ms += cpu_ms;
+  stats_.cpu_max_ms = std::max(stats_.cpu_max_ms, cpu_ms);
+}
+
 LiveSystemView::LiveSystemView(slam::view::ViewServer& server, const ViewArgs& args,
                                const fs::path& sequence)
     : server_(server), args_(args) {
   if (!sequence.empty()) images_ = std::make_shared<KeyframeImages>(sequence);
-  server_.set_info(Json{{"mode", "live mapping"}, {"map", sequence.filename().string()}, {"live", true}}.dump());
+  server_.set_info(
+      Json{{"mode", "live mapping"}, {"map", sequence.filename().string()}, {"live", true}}.dump());
 }
 
 LiveSystemView::~LiveSystemView() {
@@ -144,11 +173,11 @@ void LiveSystemView::attach(slam::system::System& system) {
   options.max_fps = args_.max_fps;
   // Residuals are left out: they would hold the map lock, which tracking needs, too long.
   feed_ = std::make_unique<slam::view::LiveFeed>(server_, options, [&system] {
-    return system.with_map([](const slam::map::Map& m) {
-      return slam::view::scene_of(m, {.residuals = false});
-    });
+    return system.with_map(
+        [](const slam::map::Map& m) { return slam::view::scene_of(m, {.residuals = false}); });
   });
-  system.set_observer(feed_.get());
+  timed_ = std::make_unique<TimedObserver>(*feed_);
+  system.set_observer(timed_.get());
   server_.set_keyframe_source([&system](std::uint64_t id) {
     return system.with_map(
         [id](const slam::map::Map& m) { return slam::view::keyframe_json(m, id); });
@@ -208,11 +237,12 @@ void linger(const slam::view::ViewServer& server, const slam::view::LiveFeedStat
   spdlog::info(
       "viewer: {} frames offered, {} published, {} map snapshots (longest {:.2f} ms under the map "
       "lock), {} pages ({} gone), {} events dropped for slow pages",
-      f.frames_offered, f.frames_published, f.map_snapshots, f.max_map_copy_ms,
-      s.clients_connected, s.disconnected, s.events_dropped);
+      f.frames_offered, f.frames_published, f.map_snapshots, f.max_map_copy_ms, s.clients_connected,
+      s.disconnected, s.events_dropped);
   if (seconds == 0.0) return;
-  spdlog::info("serving the final map at {} {}", server.url(),
-               seconds < 0.0 ? std::string("until Ctrl-C") : "for " + std::to_string(seconds) + " s");
+  spdlog::info(
+      "serving the final map at {} {}", server.url(),
+      seconds < 0.0 ? std::string("until Ctrl-C") : "for " + std::to_string(seconds) + " s");
   wait_for_signal(seconds);
 }
 
@@ -229,7 +259,10 @@ LiveLocalizationView::LiveLocalizationView(slam::view::ViewServer& server, const
     scene = slam::view::scene_of(map);
   }
   scene.frame = frame;
-  server.set_info(Json{{"mode", "live localization"}, {"map", sequence.filename().string()}, {"live", true}}.dump());
+  server.set_info(Json{
+      {"mode", "live localization"},
+      {"map", sequence.filename().string()},
+      {"live", true}}.dump());
   server.set_scene(slam::view::scene_json(scene, 1), 1);
   server.set_keyframe_source([&map, &mutex](std::uint64_t id) {
     std::lock_guard lock(mutex);

@@ -3,6 +3,7 @@
 // line options, the server started from them, keyframe images read from the mapped sequence,
 // and waiting (for a page, for Ctrl-C) without polling.
 #include <CLI/CLI.hpp>
+#include <chrono>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -23,7 +24,7 @@ struct ViewArgs {
   std::string bind = "127.0.0.1";
   std::filesystem::path web_root;  // empty: the page built with this binary
   double max_fps = 10.0;           // live frames pushed per second
-  double wait_s = 0.0;   // map/localize: wait this long for a page before the first frame
+  double wait_s = 0.0;             // map/localize: wait this long for a page before the first frame
   double linger_s = 0.0;  // map/localize: keep serving the final map this long (-1: Ctrl-C)
 };
 
@@ -48,6 +49,30 @@ class KeyframeImages {
   std::map<double, std::size_t> index_;  // timestamp -> frame
 };
 
+// What the tracking thread spends in the viewer's hook: wants_frame() for every frame and, for
+// the frames taken, the snapshot (image copy, keypoints) up to on_frame()'s return.
+struct HookStats {
+  std::uint64_t frames = 0, taken = 0;
+  double total_ms = 0.0, max_ms = 0.0;          // wall time (includes being preempted)
+  double cpu_total_ms = 0.0, cpu_max_ms = 0.0;  // the tracking thread's CPU time
+};
+
+// Wraps an observer and times it (in the tracking thread; read the stats after the run).
+class TimedObserver : public slam::system::FrameObserver {
+ public:
+  explicit TimedObserver(slam::system::FrameObserver& inner) : inner_(inner) {}
+  bool wants_frame(double timestamp) override;
+  void on_frame(slam::system::FrameSnapshot snapshot) override;
+  const HookStats& stats() const { return stats_; }
+
+ private:
+  void add();
+  slam::system::FrameObserver& inner_;
+  std::chrono::steady_clock::time_point start_;
+  double start_cpu_s_ = 0.0;
+  HookStats stats_;
+};
+
 // A live view of a running System (`coloc map --view`, `coloc bench view`): attach() before the
 // first frame (the feed observes tracking; keyframe panels read the running map under its
 // lock), finish() once the map is final (the last scene, and a copy of the map the panels read
@@ -62,6 +87,7 @@ class LiveSystemView {
   void finish(const slam::system::System& system);
   void detach();
   slam::view::LiveFeedStats stats() const;
+  const HookStats& hook() const { return timed_->stats(); }
 
  private:
   void serve_images(const std::function<std::optional<double>(std::uint64_t)>& timestamp_of);
@@ -70,6 +96,7 @@ class LiveSystemView {
   ViewArgs args_;
   std::shared_ptr<KeyframeImages> images_;
   std::unique_ptr<slam::view::LiveFeed> feed_;
+  std::unique_ptr<TimedObserver> timed_;
   slam::system::System* system_ = nullptr;
   std::shared_ptr<const slam::map::Map> final_map_;
   slam::view::LiveFeedStats stats_;  // of the feed, kept after detach()
@@ -104,8 +131,8 @@ class LiveLocalizationView {
                        const std::filesystem::path& sequence);
   // After each frame (the localizer's thread): a snapshot when the feed wants one.
   void offer(const cv::Mat& image, bool rgb, std::uint64_t index, double timestamp,
-             slam::system::ObservedState state, const SE3& world_from_cam, int inliers,
-             double ms, const slam::frame::Frame* frame);
+             slam::system::ObservedState state, const SE3& world_from_cam, int inliers, double ms,
+             const slam::frame::Frame* frame);
   // Stops the feed (the linger serves the map only).
   void finish();
   slam::view::LiveFeedStats stats() const;

@@ -32,7 +32,7 @@ struct FrameSnapshot {
   // Keypoints of the frame (raw pixels) and whether each is tracked (matched, not an outlier).
   std::vector<Eigen::Vector2f> keypoints;
   std::vector<std::uint8_t> tracked;
-  cv::Mat image;  // the image as tracking got it (a copy, owned by the snapshot)
+  cv::Mat image;     // the image as tracking got it (a copy, owned by the snapshot)
   bool rgb = false;  // image channel order (true RGB, false BGR; grey either way)
 };
 

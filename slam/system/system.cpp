@@ -200,7 +200,7 @@ void System::notify(const cv::Mat& image, const tracking::TrackingResult& r, dou
   s.state = r.state == tracking::TrackingState::kOk
                 ? (r.relocalized ? ObservedState::kRelocalized : ObservedState::kTracking)
                 : (r.state == tracking::TrackingState::kLost ? ObservedState::kLost
-                                                              : ObservedState::kInit);
+                                                             : ObservedState::kInit);
   if (r.state == tracking::TrackingState::kOk) {
     s.world_from_cam = r.cam_from_world.inverse();
     fill_keypoints(tracker_->last_frame(), s);

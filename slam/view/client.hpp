@@ -16,11 +16,11 @@
 namespace coloc::slam::view {
 
 struct EventClientStats {
-  bool connected = false;  // the stream's `hello` event arrived
-  std::uint64_t frames = 0, maps = 0;  // `frame` and `map` events
+  bool connected = false;                        // the stream's `hello` event arrived
+  std::uint64_t frames = 0, maps = 0;            // `frame` and `map` events
   std::uint64_t map_bytes = 0, image_bytes = 0;  // fetched like the page
-  std::string last_frame;  // data of the last `frame` event (JSON)
-  std::string scene;       // the last scene fetched (JSON)
+  std::string last_frame;                        // data of the last `frame` event (JSON)
+  std::string scene;                             // the last scene fetched (JSON)
 };
 
 class EventClient {

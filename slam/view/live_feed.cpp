@@ -17,11 +17,11 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 // BGR (or grey) JPEG of the frame, scaled down to `max_width`; the scale applied in `scale`.
-std::string encode_jpeg(const cv::Mat& image, bool rgb, int quality, int max_width,
-                        double& scale) {
+std::string encode_jpeg(const cv::Mat& image, bool rgb, int quality, int max_width, double& scale) {
   cv::Mat bgr = image;
   if (image.channels() == 3 && rgb) cv::cvtColor(image, bgr, cv::COLOR_RGB2BGR);
-  if (image.channels() == 4) cv::cvtColor(image, bgr, rgb ? cv::COLOR_RGBA2BGR : cv::COLOR_BGRA2BGR);
+  if (image.channels() == 4)
+    cv::cvtColor(image, bgr, rgb ? cv::COLOR_RGBA2BGR : cv::COLOR_BGRA2BGR);
   scale = 1.0;
   if (bgr.cols > max_width) {
     scale = static_cast<double>(max_width) / bgr.cols;
@@ -36,7 +36,8 @@ std::string encode_jpeg(const cv::Mat& image, bool rgb, int quality, int max_wid
 
 std::string frame_json(const system::FrameSnapshot& s, int width, int height) {
   nlohmann::json pose;
-  if (s.state == system::ObservedState::kTracking || s.state == system::ObservedState::kRelocalized) {
+  if (s.state == system::ObservedState::kTracking ||
+      s.state == system::ObservedState::kRelocalized) {
     const Eigen::Quaterniond& q = s.world_from_cam.quaternion();
     const Eigen::Vector3d& t = s.world_from_cam.translation();
     pose = {q.x(), q.y(), q.z(), q.w(), t.x(), t.y(), t.z()};
@@ -48,12 +49,11 @@ std::string frame_json(const system::FrameSnapshot& s, int width, int height) {
     kp.push_back(std::lround(s.keypoints[i].y()));
     if (s.tracked[i] != 0) tracked[i] = '1';
   }
-  const nlohmann::json j{{"index", s.index},         {"t", s.timestamp},
-                         {"state", to_string(s.state)}, {"keyframe", s.keyframe},
-                         {"pose", pose},              {"inliers", s.inliers},
-                         {"track_ms", s.track_ms},    {"width", width},
-                         {"height", height},          {"keypoints", kp},
-                         {"tracked", tracked}};
+  const nlohmann::json j{
+      {"index", s.index},       {"t", s.timestamp},  {"state", to_string(s.state)},
+      {"keyframe", s.keyframe}, {"pose", pose},      {"inliers", s.inliers},
+      {"track_ms", s.track_ms}, {"width", width},    {"height", height},
+      {"keypoints", kp},        {"tracked", tracked}};
   return j.dump();
 }
 
@@ -61,7 +61,8 @@ std::string frame_json(const system::FrameSnapshot& s, int width, int height) {
 
 void LiveFeedOptions::check() const {
   if (!(max_fps > 0.0)) throw Error("must be positive (frames per second)", {.field = "max_fps"});
-  if (!(map_interval_s > 0.0)) throw Error("must be positive (seconds)", {.field = "map_interval_s"});
+  if (!(map_interval_s > 0.0))
+    throw Error("must be positive (seconds)", {.field = "map_interval_s"});
   if (!(map_lock_share > 0.0 && map_lock_share <= 1.0))
     throw Error("must be in (0, 1]", {.field = "map_lock_share"});
   if (jpeg_quality < 1 || jpeg_quality > 100)
@@ -189,8 +190,8 @@ void LiveFeed::run() {
       snapshot_map();
       last_map = Clock::now();
       // Copying a big map takes longer: space the copies so they stay a small share of the time.
-      map_interval = std::max(options_.map_interval_s,
-                              watch.elapsed_seconds() / options_.map_lock_share);
+      map_interval =
+          std::max(options_.map_interval_s, watch.elapsed_seconds() / options_.map_lock_share);
     }
   }
 }

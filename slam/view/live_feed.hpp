@@ -25,11 +25,11 @@
 namespace coloc::slam::view {
 
 struct LiveFeedOptions {
-  double max_fps = 10.0;          // frames pushed to the pages per second
-  double map_interval_s = 1.0;    // least time between two map snapshots
-  double map_lock_share = 0.02;   // most of the wall time spent copying the map
-  int jpeg_quality = 70;          // 1..100
-  int max_image_width = 640;      // wider frames are scaled down before encoding
+  double max_fps = 10.0;         // frames pushed to the pages per second
+  double map_interval_s = 1.0;   // least time between two map snapshots
+  double map_lock_share = 0.02;  // most of the wall time spent copying the map
+  int jpeg_quality = 70;         // 1..100
+  int max_image_width = 640;     // wider frames are scaled down before encoding
   // Throws coloc::Error naming the first invalid field.
   void check() const;
 };

@@ -24,7 +24,7 @@ struct SceneKeyframe {
   std::uint64_t id = 0;
   double timestamp = 0.0;
   SE3 world_from_cam;
-  std::optional<std::uint64_t> parent;  // spanning tree
+  std::optional<std::uint64_t> parent;     // spanning tree
   std::size_t keypoints = 0, tracked = 0;  // tracked: keypoints with a map point
   std::size_t markers = 0;                 // marker observations
   // RMS reprojection error of the keyframe's map points (undistorted pixels); -1 without any.
@@ -54,10 +54,10 @@ struct SceneOptions {
 };
 
 struct MapScene {
-  std::string frame = "slam";  // the map's frame name
-  std::vector<SceneKeyframe> keyframes;                          // by id
-  std::vector<std::array<std::uint64_t, 3>> covisibility;        // (a, b, weight), a < b
-  std::vector<std::array<std::uint64_t, 2>> loop_edges;          // (a, b), a < b
+  std::string frame = "slam";                              // the map's frame name
+  std::vector<SceneKeyframe> keyframes;                    // by id
+  std::vector<std::array<std::uint64_t, 3>> covisibility;  // (a, b, weight), a < b
+  std::vector<std::array<std::uint64_t, 2>> loop_edges;    // (a, b), a < b
   ScenePoints points;
   std::vector<SceneMarker> slam_markers, scan_markers;
   std::optional<PinholeCamera> camera;  // image size and intrinsics of the keyframes

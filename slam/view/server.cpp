@@ -20,7 +20,8 @@
 namespace coloc::slam::view {
 
 void ViewServerOptions::check() const {
-  if (bind.empty()) throw Error("must name an address (127.0.0.1: this machine only)", {.field = "bind"});
+  if (bind.empty())
+    throw Error("must name an address (127.0.0.1: this machine only)", {.field = "bind"});
   if (port < 0 || port > 65535) throw Error("must be 0..65535", {.field = "port"});
   if (web_root.empty() || !std::filesystem::is_regular_file(web_root / "index.html"))
     throw Error("the viewer's page is not built here (no index.html)",
@@ -47,7 +48,7 @@ struct ViewServer::Impl {
   std::thread thread;
   int port = 0;
 
-  mutable std::mutex mutex;  // everything below
+  mutable std::mutex mutex;                // everything below
   std::condition_variable wake;            // new events, closing
   mutable std::condition_variable joined;  // a page opened its event stream
   bool closing = false;
@@ -65,8 +66,7 @@ struct ViewServer::Impl {
 namespace {
 
 // Serves `body` (a member of Impl, read under its mutex) with `type`, or 404 when empty.
-void serve(httplib::Response& res, std::mutex& mutex, const std::string& body,
-           const char* type) {
+void serve(httplib::Response& res, std::mutex& mutex, const std::string& body, const char* type) {
   std::string copy;
   {
     std::lock_guard lock(mutex);
@@ -101,17 +101,16 @@ void ViewServer::Impl::routes() {
     ++stats.requests;
     return httplib::Server::HandlerResponse::Unhandled;
   });
-  http.Get("/api/info", [this](const auto&, auto& res) { serve(res, mutex, info, "application/json"); });
-  http.Get("/api/map", [this](const auto&, auto& res) { serve(res, mutex, scene, "application/json"); });
-  http.Get("/api/scan.bin", [this](const auto&, auto& res) {
-    serve(res, mutex, scan, "application/octet-stream");
-  });
-  http.Get("/api/registration", [this](const auto&, auto& res) {
-    serve(res, mutex, registration, "application/json");
-  });
-  http.Get("/api/live/image.jpg", [this](const auto&, auto& res) {
-    serve(res, mutex, live_image, "image/jpeg");
-  });
+  http.Get("/api/info",
+           [this](const auto&, auto& res) { serve(res, mutex, info, "application/json"); });
+  http.Get("/api/map",
+           [this](const auto&, auto& res) { serve(res, mutex, scene, "application/json"); });
+  http.Get("/api/scan.bin",
+           [this](const auto&, auto& res) { serve(res, mutex, scan, "application/octet-stream"); });
+  http.Get("/api/registration",
+           [this](const auto&, auto& res) { serve(res, mutex, registration, "application/json"); });
+  http.Get("/api/live/image.jpg",
+           [this](const auto&, auto& res) { serve(res, mutex, live_image, "image/jpeg"); });
   const auto keyframe = [this](bool image) {
     return [this, image](const httplib::Request& req, httplib::Response& res) {
       KeyframeSource source;
@@ -214,8 +213,8 @@ ViewServer::ViewServer(ViewServerOptions options) : impl_(std::make_unique<Impl>
   }
   if (d.port <= 0) {
     const std::string why = errno == EADDRINUSE ? "the port is in use (another viewer?)"
-                            : errno != 0      ? std::strerror(errno)
-                                              : "the address is not valid here";
+                            : errno != 0        ? std::strerror(errno)
+                                                : "the address is not valid here";
     throw Error("cannot listen on " + options.bind + ":" + std::to_string(options.port) + ": " +
                     why + "; choose another with --port (0: any free port)",
                 {.field = "port"});

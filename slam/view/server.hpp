@@ -27,9 +27,9 @@
 namespace coloc::slam::view {
 
 struct ViewServerOptions {
-  std::string bind = "127.0.0.1";  // loopback unless the user asks otherwise
-  int port = 8080;                 // 0: any free port
-  std::filesystem::path web_root;  // the built page (must hold index.html)
+  std::string bind = "127.0.0.1";    // loopback unless the user asks otherwise
+  int port = 8080;                   // 0: any free port
+  std::filesystem::path web_root;    // the built page (must hold index.html)
   std::filesystem::path report_dir;  // a registration report folder (optional), at /report/
   std::size_t client_queue = 16;     // events queued per page before the oldest is dropped
   std::size_t max_clients = 8;       // event streams at once (each holds a connection thread)

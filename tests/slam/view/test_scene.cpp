@@ -61,8 +61,8 @@ TEST(ViewScene, ResidualIsZeroWhenPointsLieOnTheirRays) {
     map::MapPoint* p = kf.frame.points[i].valid() ? map.point(kf.frame.points[i]) : nullptr;
     if (p == nullptr) continue;
     const Eigen::Vector2d uv = kf.frame.pixel(i);
-    p->position = world_from_cam * (2.0 * Eigen::Vector3d((uv.x() - g.cx) / g.fx,
-                                                          (uv.y() - g.cy) / g.fy, 1.0));
+    p->position = world_from_cam *
+                  (2.0 * Eigen::Vector3d((uv.x() - g.cx) / g.fx, (uv.y() - g.cy) / g.fy, 1.0));
   }
   const MapScene scene = scene_of(map);
   for (const SceneKeyframe& k : scene.keyframes) {

@@ -2,12 +2,12 @@
 // the events published to them, a page leaving mid-stream is counted and costs the producer
 // nothing, and the feed takes frames only while a page is open and no faster than asked.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <thread>
-#include <unistd.h>
 
 #include "slam/core/error.hpp"
 #include "slam/view/client.hpp"
@@ -21,7 +21,8 @@ namespace fs = std::filesystem;
 
 // A web root with a page: the server refuses to start without one.
 fs::path web_root() {
-  const fs::path dir = fs::temp_directory_path() / ("coloc_view_test_" + std::to_string(::getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("coloc_view_test_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   std::ofstream(dir / "index.html") << "<!doctype html><title>coloc view</title>";
   return dir;
