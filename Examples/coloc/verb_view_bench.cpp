@@ -114,16 +114,13 @@ void run_bench(const ViewBenchArgs& a) {
     }
   }
   std::printf(
-      "ms: tracking thread per frame (extraction + tracking, wall time); hook_us / hook_max: mean "
-      "/\n"
-      "longest CPU microseconds per frame the tracking thread spent in the viewer's hook (the "
-      "frame\n"
-      "snapshot included), hook_wall: longest wall time in it (preemption included); pushed: "
-      "frames\n"
-      "the feed sent; maps:\n"
-      "map snapshots; page_fr: frames the page received; map_lk_ms: longest map copy (map lock\n"
-      "held); encode_ms: longest JPEG encoding (feed thread); dropped: events dropped for the "
-      "page\n");
+      "ms: tracking thread per frame (extraction + tracking, wall time)\n"
+      "hook_us / hook_max: mean / longest CPU microseconds per frame that the tracking thread\n"
+      "  spent in the viewer's hook (the frame snapshot included); hook_wall: longest wall time\n"
+      "  in it (preemption included)\n"
+      "pushed: frames the feed sent; maps: map snapshots; page_fr: frames the page received\n"
+      "map_lk_ms: longest map snapshot (waiting for the map lock included)\n"
+      "encode_ms: longest JPEG encoding (feed thread); dropped: events dropped for the page\n");
   if (a.json) print_json(rows);
 }
 

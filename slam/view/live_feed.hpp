@@ -39,8 +39,9 @@ struct LiveFeedStats {
   std::uint64_t frames_taken = 0;    // snapshots taken by on_frame()
   std::uint64_t frames_published = 0;
   std::uint64_t map_snapshots = 0;
-  double max_map_copy_ms = 0.0;  // longest MapSnapshotFn call (the map lock is held in it)
-  double max_encode_ms = 0.0;    // longest JPEG encoding of a frame
+  // Longest MapSnapshotFn call: the wait for the map lock and the copy under it.
+  double max_map_copy_ms = 0.0;
+  double max_encode_ms = 0.0;  // longest JPEG encoding of a frame
 };
 
 // Builds the scene of the running map (takes the map's lock itself); called on the feed's thread.

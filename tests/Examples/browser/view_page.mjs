@@ -19,7 +19,8 @@ async function launch() {
   const context = await chromium.launchPersistentContext(profile, {
     executablePath: process.env.CHROMIUM || '/usr/bin/chromium',
     headless: true,
-    viewport: { width: 1280, height: 720 },
+    // VIEWPORT=WxH for a smaller picture (the README's screenshot).
+    viewport: (([w, h]) => ({ width: w, height: h }))((process.env.VIEWPORT || '1280x720').split('x').map(Number)),
     args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
            '--disable-background-networking', '--disable-component-update', '--disable-sync'],
   });
@@ -29,7 +30,7 @@ async function launch() {
 const text = (page, id) => page.locator('#' + id).textContent();
 
 async function saved(page) {
-  await page.goto(url);
+  await page.goto(url, { timeout: 120000 });
   // The scene has arrived when the keyframe count is set and the 3-D view has framed it.
   await page.waitForFunction(() => window.colocView && window.colocView.state.scene, null, { timeout: 30000 });
   const counts = {
@@ -84,7 +85,7 @@ async function saved(page) {
 }
 
 async function live(page, seconds) {
-  await page.goto(url);
+  await page.goto(url, { timeout: 120000 });
   const frames = [];
   const end = Date.now() + 1000 * seconds;
   // Sample what the live panel shows; leave (close the browser while the stream is open) once
