@@ -134,7 +134,7 @@ void ViewServer::Impl::routes() {
   http.set_exception_handler([](const auto&, auto& res, std::exception_ptr e) {
     res.status = 500;
     try {
-      std::rethrow_exception(e);
+      std::rethrow_exception(std::move(e));
     } catch (const std::exception& x) {
       res.set_content(x.what(), "text/plain");
     }
@@ -193,9 +193,9 @@ void ViewServer::Impl::events(httplib::Response& res) {
 
 ViewServer::ViewServer(ViewServerOptions options) : impl_(std::make_unique<Impl>()) {
   options.check();
-  impl_->options = options;
+  impl_->options = std::move(options);
   Impl& d = *impl_;
-  const std::size_t threads = options.max_clients + 4;
+  const std::size_t threads = d.options.max_clients + 4;
   d.http.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
   d.http.set_keep_alive_timeout(2);
   // httplib's default is SO_REUSEPORT, which lets a second viewer share the port (and split
@@ -206,16 +206,16 @@ ViewServer::ViewServer(ViewServerOptions options) : impl_(std::make_unique<Impl>
   });
   d.routes();
   errno = 0;
-  if (options.port == 0) {
-    d.port = d.http.bind_to_any_port(options.bind);
+  if (d.options.port == 0) {
+    d.port = d.http.bind_to_any_port(d.options.bind);
   } else {
-    d.port = d.http.bind_to_port(options.bind, options.port) ? options.port : -1;
+    d.port = d.http.bind_to_port(d.options.bind, d.options.port) ? d.options.port : -1;
   }
   if (d.port <= 0) {
     const std::string why = errno == EADDRINUSE ? "the port is in use (another viewer?)"
                             : errno != 0        ? std::strerror(errno)
                                                 : "the address is not valid here";
-    throw Error("cannot listen on " + options.bind + ":" + std::to_string(options.port) + ": " +
+    throw Error("cannot listen on " + d.options.bind + ":" + std::to_string(d.options.port) + ": " +
                     why + "; choose another with --port (0: any free port)",
                 {.field = "port"});
   }
