@@ -68,8 +68,8 @@ std::string scan_binary(const fs::path& e57, double voxel) {
   std::memcpy(out.data(), &n, 4);
   for (std::uint32_t i = 0; i < n; ++i) {
     std::memcpy(out.data() + 4 + 12 * static_cast<std::size_t>(i), cloud.points[i].data(), 12);
-    std::memcpy(out.data() + 4 + 12 * static_cast<std::size_t>(n) + 3 * i, cloud.colours[i].data(),
-                3);
+    std::memcpy(out.data() + 4 + 12 * static_cast<std::size_t>(n) + 3 * static_cast<std::size_t>(i),
+                cloud.colours[i].data(), 3);
   }
   spdlog::info("scan: {} points read, {} shown ({} m voxels)", stats.points_read, n, voxel);
   return out;
