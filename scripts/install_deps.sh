@@ -15,7 +15,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-numpy python3-matplotlib
   libcpp-httplib-dev
-  nodejs chromium
+  nodejs chromium chromium-driver
 )
 
 missing=()
