@@ -16,6 +16,8 @@ packages=(
   libspdlog-dev libcli11-dev libpugixml-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-numpy python3-matplotlib
+  libcpp-httplib-dev
+  nodejs chromium chromium-driver
 )
 
 missing=()
@@ -24,6 +26,12 @@ for p in "${packages[@]}"; do
     missing+=("$p")
   fi
 done
+
+# npm: Debian's package, unless a nodejs from elsewhere (NodeSource) already brings its own npm
+# (Debian's npm package would conflict with it).
+if ! command -v npm >/dev/null; then
+  missing+=(npm)
+fi
 
 if [[ ${#missing[@]} -eq 0 ]]; then
   echo "install_deps: all ${#packages[@]} packages present" >&2

@@ -39,6 +39,14 @@ RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& 
     progress.finish();
   }
   slam::system::System& slam = *system;
+  // Runs on_stop before `system` goes, however the run ends.
+  struct Detach {
+    const std::function<void()>& on_stop;
+    ~Detach() {
+      if (on_stop) on_stop();
+    }
+  } detach{run.on_stop};
+  if (run.on_start) run.on_start(slam);
   Progress progress("slam", sequence.size());
   RunResult r;
   for (std::size_t i = 0; i < sequence.size(); ++i) {

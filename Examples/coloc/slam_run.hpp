@@ -22,6 +22,10 @@ struct RunOptions {
   bool global_ba = true;       // of the finished map
   bool loop = true;            // loop closing
   std::filesystem::path load;  // a saved map to continue (empty: a new map)
+  // Called with the System before the first frame (a live viewer attaches itself), and before
+  // the System is destroyed, also when the run fails (it detaches).
+  std::function<void(slam::system::System&)> on_start;
+  std::function<void()> on_stop;
 };
 
 struct RunResult {

@@ -21,6 +21,7 @@
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
 #include "Examples/coloc/verbs.hpp"
+#include "Examples/coloc/view_session.hpp"
 #include "fusion/osc_node.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/progress.hpp"
@@ -54,6 +55,7 @@ struct LocalizeArgs {
   int repeat = 1;          // replay the frames this often (memory over long sessions)
   double linger = 0.0;     // seconds to keep answering /coloc/get_pose after the last frame
   // bench
+  ViewArgs view;  // --view: live in the browser
   int runs = 1;
   int cold_starts = 50;
   std::uint64_t seed = 1;
@@ -293,14 +295,28 @@ void run_localize(const LocalizeArgs& args) {
   const char* published_name = args.head.empty() ? "world_from_cam" : "world_from_head";
   Localizer localizer(*in.map, in.vocabulary, in.settings,
                       slam::localize::options_from_settings(in.settings));
+  // A viewer that cannot start (port in use) is a warning: localization goes on without it.
+  std::unique_ptr<slam::view::ViewServer> view_server;
+  std::unique_ptr<LiveLocalizationView> view;
+  if (args.view.enabled) view_server = start_view_server(args.view, {}, false);
+  if (view_server)
+    view = std::make_unique<LiveLocalizationView>(*view_server, args.view, in.map->shared.map,
+                                                  in.map->shared.mutex, in.map->metadata.frame_name,
+                                                  args.sequence);
+  std::uint64_t frame_index = 0;
   SessionTotals totals;
   std::int32_t sequence_number = 0;
   SE3 last_pose;
   replay(
       args, sequence, end, totals,
       [&](const dataset::Frame& frame, double time, bool first_replay) {
-        const LocalizationResult r = localizer.localize(
-            dataset::to_camera_order(frame.color, in.settings.rgb_order), frame.depth, time);
+        const cv::Mat image = dataset::to_camera_order(frame.color, in.settings.rgb_order);
+        const LocalizationResult r = localizer.localize(image, frame.depth, time);
+        if (view)
+          view->offer(image, in.settings.rgb_order, frame_index, time,
+                      static_cast<slam::system::ObservedState>(r.state), r.world_from_cam,
+                      r.inliers, r.total_ms, localizer.last_frame());
+        ++frame_index;
         if (r.state == LocalizationState::kLost) {
           server->set_latest(fusion::PoseMessage::from_pose(time, sequence_number, 0, last_pose));
           return;
@@ -318,6 +334,10 @@ void run_localize(const LocalizeArgs& args) {
   if (!args.trajectory.empty()) write_trajectory(args.trajectory, totals.trajectory);
 
   print_summary(args, in, localizer.stats(), totals, *server, published_name);
+  if (view) {
+    view->finish();
+    linger(*view_server, view->stats(), args.view.linger_s);
+  }
 }
 
 // Resident set size of this process (bytes), from /proc/self/statm; 0 when unreadable.
@@ -454,6 +474,7 @@ void add_localize_verb(CLI::App& app, CLI::App& bench) {
                   "Seconds to keep answering /coloc/get_pose after the last frame")
       ->check(CLI::Range(0.0, 3600.0));
   cmd->add_flag("--json", args->json, "Machine-readable summary");
+  add_live_view_options(*cmd, args->view);
   cmd->callback([args] { run_localize(*args); });
 
   CLI::App* b = bench.add_subcommand(

@@ -18,6 +18,7 @@
 #include "Examples/coloc/slam_inputs.hpp"
 #include "Examples/coloc/slam_run.hpp"
 #include "Examples/coloc/verbs.hpp"
+#include "Examples/coloc/view_session.hpp"
 #include "slam/bow/vocabulary.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/progress.hpp"
@@ -45,6 +46,7 @@ struct MapArgs {
   bool no_loop = false;
   bool json = false;
   int runs = 1;
+  ViewArgs view;  // --view: live in the browser
 };
 
 void save_finished_map(const slam::system::System& slam, const fs::path& path, bool json) {
@@ -85,12 +87,22 @@ void run_map(const MapArgs& given) {
   if (args.save.empty()) args.save = in.slam.settings.save_map;
   // An unwritable map destination is an error before the run, not after it.
   if (!args.save.empty()) slam::mapdb::AtomicFile probe(args.save);
-  const RunOptions run{.sequential = args.sequential,
-                       .global_ba = !args.no_global_ba,
-                       .loop = !args.no_loop,
-                       .load = args.load};
+  // A viewer that cannot start (port in use) is a warning: the run goes on without it.
+  std::unique_ptr<slam::view::ViewServer> server;
+  std::unique_ptr<LiveSystemView> live;
+  if (args.view.enabled) server = start_view_server(args.view, {}, false);
+  if (server) live = std::make_unique<LiveSystemView>(*server, args.view, args.sequence);
+  RunOptions run{.sequential = args.sequential,
+                 .global_ba = !args.no_global_ba,
+                 .loop = !args.no_loop,
+                 .load = args.load};
+  if (live) {
+    run.on_start = [&](slam::system::System& s) { live->attach(s); };
+    run.on_stop = [&] { live->detach(); };
+  }
   const RunResult r = run_slam(*in.slam.sequence, in.slam.settings, in.vocabulary, run,
                                [&](const slam::system::System& slam) {
+                                 if (live) live->finish(slam);
                                  if (!args.save.empty())
                                    save_finished_map(slam, args.save, args.json);
                                });
@@ -133,6 +145,7 @@ void run_map(const MapArgs& given) {
                 << r.ate_keyframes->translation.count << " keyframes\n";
     std::cout << "trajectory: " << args.trajectory.string() << "\n";
   }
+  if (live) linger(*server, live->stats(), args.view.linger_s);
 }
 
 void run_bench(const MapArgs& args) {
@@ -208,6 +221,7 @@ void add_map_verb(CLI::App& app, CLI::App& bench) {
                 "Skip the global bundle adjustment of the finished map");
   map->add_flag("--no-loop", args->no_loop, "No loop closing");
   map->add_flag("--json", args->json, "Machine-readable summary");
+  add_live_view_options(*map, args->view);
   map->callback([args] { run_map(*args); });
 
   CLI::App* track =

@@ -32,5 +32,8 @@ void add_session_verb(CLI::App& app, CLI::App& bench);
 void add_session_bench(CLI::App& bench);
 // `coloc register` (verb_register.cpp).
 void add_register_verb(CLI::App& app);
+// `coloc view` and `coloc bench view` (verb_view.cpp, verb_view_bench.cpp).
+void add_view_verb(CLI::App& app, CLI::App& bench);
+void add_view_bench_verb(CLI::App& bench);
 
 }  // namespace coloc::cli

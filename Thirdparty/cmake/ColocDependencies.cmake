@@ -43,6 +43,14 @@ if(NOT OSMESA_FOUND)
 endif()
 add_library(coloc::osmesa ALIAS PkgConfig::OSMESA)
 
+# cpp-httplib (the viewer's server, slam/view): Debian builds it as a shared library whose
+# pkg-config file carries the feature macros the header must be compiled with.
+pkg_check_modules(HTTPLIB IMPORTED_TARGET cpp-httplib>=0.11)
+if(NOT HTTPLIB_FOUND)
+  message(FATAL_ERROR "cpp-httplib not found: install the Debian package 'libcpp-httplib-dev'")
+endif()
+add_library(coloc::httplib ALIAS PkgConfig::HTTPLIB)
+
 if(COLOC_BUILD_TESTS)
   coloc_require_package(GTest "libgtest-dev libgmock-dev")
 endif()

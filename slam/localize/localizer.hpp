@@ -116,6 +116,9 @@ class Localizer {
   void reset();
 
   const LocalizerStats& stats() const { return stats_; }
+  // The last frame's keypoints and matched points (for a viewer); empty when it was not
+  // localized, null before the first frame. Valid until the next localize().
+  const frame::Frame* last_frame() const { return tracker_ ? &tracker_->last_frame() : nullptr; }
   const LocalizationMap& map() const { return map_; }
 
  private:

@@ -189,7 +189,28 @@ tracking::TrackingResult System::track(const cv::Mat& image, const cv::Mat& dept
   pose_ms_.push_back(r.pose_ms);
   local_map_ms_.push_back(r.local_map_ms);
   keyframe_ms_.push_back(r.keyframe_ms);
+  if (observer_ != nullptr && observer_->wants_frame(timestamp)) notify(image, r, timestamp);
   return r;
+}
+
+void System::notify(const cv::Mat& image, const tracking::TrackingResult& r, double timestamp) {
+  FrameSnapshot s;
+  s.index = extract_ms_.size() - 1;
+  s.timestamp = timestamp;
+  s.state = r.state == tracking::TrackingState::kOk
+                ? (r.relocalized ? ObservedState::kRelocalized : ObservedState::kTracking)
+                : (r.state == tracking::TrackingState::kLost ? ObservedState::kLost
+                                                             : ObservedState::kInit);
+  if (r.state == tracking::TrackingState::kOk) {
+    s.world_from_cam = r.cam_from_world.inverse();
+    fill_keypoints(tracker_->last_frame(), s);
+  }
+  s.keyframe = r.keyframe;
+  s.inliers = r.inliers;
+  s.track_ms = r.extract_ms + r.track_ms;
+  s.image = image.clone();
+  s.rgb = options_.tracking.rgb_input;
+  observer_->on_frame(std::move(s));
 }
 
 Trajectory System::trajectory() const {

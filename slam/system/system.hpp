@@ -20,6 +20,7 @@
 #include "slam/mapping/global_ba.hpp"
 #include "slam/mapping/local_mapper.hpp"
 #include "slam/settings/settings.hpp"
+#include "slam/system/frame_observer.hpp"
 #include "slam/system/options.hpp"
 #include "slam/tracking/tracker.hpp"
 
@@ -80,6 +81,9 @@ class System {
   Trajectory trajectory() const;
   Trajectory keyframe_trajectory() const;
   SystemSummary summary() const;
+  // A viewer's window onto tracking (null: none). Borrowed: it must outlive the System or be
+  // reset to null first. Set it before the first frame, from the tracking thread.
+  void set_observer(FrameObserver* observer) { observer_ = observer; }
   // Runs f(const map::Map&) under the map lock.
   template <typename F>
   auto with_map(F&& f) const {
@@ -92,6 +96,8 @@ class System {
   void start_tracking(int width, int height);
 
   mapdb::MapMetadata metadata() const;
+  // Hands the observer this frame's snapshot (tracking thread).
+  void notify(const cv::Mat& image, const tracking::TrackingResult& r, double timestamp);
 
   SystemOptions options_;
   settings::Settings settings_;  // Camera width/height filled in by start_tracking()
@@ -106,6 +112,7 @@ class System {
   std::string frame_name_ = "slam";
   std::optional<Sim3> frame_from_slam_;
   bool running_ = true;  // mapping threads not yet shut down
+  FrameObserver* observer_ = nullptr;
   std::vector<double> extract_ms_, track_ms_, pose_ms_, local_map_ms_, keyframe_ms_;
 };
 
