@@ -67,6 +67,17 @@ FusedPose DriftFuser::push_xr_pose(double time, const SE3& xr_from_head) {
   return latest_;
 }
 
+void DriftFuser::restart_xr_clock() {
+  buffer_.clear();
+  have_xr_ = false;
+  last_accepted_time_ = -1e300;
+}
+
+void DriftFuser::restart_global_clock() {
+  last_global_time_ = -1e300;
+  last_accepted_time_ = -1e300;
+}
+
 GateDecision DriftFuser::push_global_pose(double time, const SE3& world_from_head,
                                           TrackingState tracking) {
   ++stats_.global_poses;

@@ -72,13 +72,13 @@ fusion::FuserOptions fuser_options(const FuseArgs& a) {
   return o;
 }
 
-Json stats_json(const fusion::FuserStats& s, const fusion::OscStats* osc,
-                std::uint64_t out_of_order, std::uint64_t published) {
+Json stats_json(const fusion::FuserStats& s, const fusion::FusionNodeStats* node) {
   Json j = {{"xr_poses", s.xr_poses},   {"global_poses", s.global_poses},
             {"accepted", s.accepted},   {"initialized", s.initialized},
             {"rejected", s.rejected},   {"lost", s.lost},
             {"unaligned", s.unaligned}, {"out_of_order", s.out_of_order}};
-  if (osc != nullptr) {
+  if (node != nullptr) {
+    const fusion::OscStats* osc = &node->osc;
     j["osc"] = {{"packets", osc->packets},
                 {"messages", osc->messages},
                 {"malformed", osc->malformed},
@@ -86,16 +86,17 @@ Json stats_json(const fusion::FuserStats& s, const fusion::OscStats* osc,
                 {"wrong_types", osc->wrong_types},
                 {"unknown_address", osc->unknown_address},
                 {"invalid_values", osc->invalid_values},
-                {"out_of_order", out_of_order},
-                {"published", published}};
+                {"out_of_order", node->out_of_order},
+                {"implausible", node->implausible},
+                {"resyncs", node->resyncs},
+                {"published", node->published}};
   }
   return j;
 }
 
-void print_stats(const fusion::FuserStats& s, const fusion::OscStats* osc,
-                 std::uint64_t out_of_order, std::uint64_t published, bool json) {
+void print_stats(const fusion::FuserStats& s, const fusion::FusionNodeStats* node, bool json) {
   if (json) {
-    print_json(stats_json(s, osc, out_of_order, published));
+    print_json(stats_json(s, node));
     return;
   }
   std::printf(
@@ -106,10 +107,12 @@ void print_stats(const fusion::FuserStats& s, const fusion::OscStats* osc,
       static_cast<unsigned long long>(s.rejected), static_cast<unsigned long long>(s.lost),
       static_cast<unsigned long long>(s.unaligned),
       static_cast<unsigned long long>(s.out_of_order));
-  if (osc != nullptr) {
+  if (node != nullptr) {
+    const fusion::OscStats* osc = &node->osc;
     std::printf(
         "osc: packets %llu, messages %llu, dropped: malformed %llu, oversized %llu, wrong types "
-        "%llu, unknown address %llu, invalid values %llu, old sequence %llu; published %llu\n",
+        "%llu, unknown address %llu, invalid values %llu, stale %llu, implausible %llu; "
+        "streams re-anchored %llu; published %llu\n",
         static_cast<unsigned long long>(osc->packets),
         static_cast<unsigned long long>(osc->messages),
         static_cast<unsigned long long>(osc->malformed),
@@ -117,7 +120,10 @@ void print_stats(const fusion::FuserStats& s, const fusion::OscStats* osc,
         static_cast<unsigned long long>(osc->wrong_types),
         static_cast<unsigned long long>(osc->unknown_address),
         static_cast<unsigned long long>(osc->invalid_values),
-        static_cast<unsigned long long>(out_of_order), static_cast<unsigned long long>(published));
+        static_cast<unsigned long long>(node->out_of_order),
+        static_cast<unsigned long long>(node->implausible),
+        static_cast<unsigned long long>(node->resyncs),
+        static_cast<unsigned long long>(node->published));
     if (!osc->last_error.empty()) std::printf("last dropped packet: %s\n", osc->last_error.c_str());
   }
 }
@@ -164,7 +170,7 @@ void run_node(const FuseArgs& a) {
     }
     node.stop();
     const fusion::FusionNodeStats s = node.stats();
-    print_stats(s.fuser, &s.osc, s.out_of_order, s.published, a.json);
+    print_stats(s.fuser, &s, a.json);
   }
   sigaction(SIGINT, &previous_int, nullptr);
   sigaction(SIGTERM, &previous_term, nullptr);
@@ -186,7 +192,7 @@ void run_imu_files(const FuseArgs& a) {
                 static_cast<unsigned long long>(r.imu.gaps),
                 static_cast<unsigned long long>(r.imu.corrections));
   }
-  print_stats(r.fuser, nullptr, 0, 0, a.json);
+  print_stats(r.fuser, nullptr, a.json);
 }
 
 // Replays recorded headset and global trajectories (TUM files, same clock) through the fuser;
@@ -196,7 +202,7 @@ void run_files(const FuseArgs& a) {
       read_tum_trajectory(a.xr_file),
       fusion::delayed(read_tum_trajectory(a.global_file), a.latency), fuser_options(a));
   if (!a.out_file.empty()) write_tum_trajectory(a.out_file, r.fused);
-  print_stats(r.stats, nullptr, 0, 0, a.json);
+  print_stats(r.stats, nullptr, a.json);
 }
 
 void add_filter_options(CLI::App& cmd, FuseArgs& a) {
