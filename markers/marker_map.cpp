@@ -7,6 +7,7 @@
 #include <string_view>
 
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc::markers {
 namespace {
@@ -153,9 +154,7 @@ void write_marker_map(const std::filesystem::path& path, const MarkerMap& map) {
 }
 
 MarkerMap read_marker_map(const std::filesystem::path& path) {
-  if (!std::filesystem::exists(path)) {
-    throw Error("marker map does not exist", {.file = path.string()});
-  }
+  check_input_file(path, "marker map");
   cv::FileStorage fs;
   try {
     fs.open(path.string(), cv::FileStorage::READ);

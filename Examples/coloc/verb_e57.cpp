@@ -10,12 +10,14 @@
 #include <iostream>
 #include <memory>
 #include <sstream>
+#include <string_view>
 
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "e57io/reader.hpp"
 #include "e57io/synthetic.hpp"
 #include "e57io/writer.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/progress.hpp"
 #include "slam/core/timing.hpp"
 
@@ -151,15 +153,17 @@ std::string safe_name(const std::string& s) {
 }
 
 void write_bytes(const fs::path& path, const std::vector<std::uint8_t>& bytes) {
-  std::ofstream f(path, std::ios::binary);
-  f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-  if (!f) throw CliFailure("cannot write " + path.string());
+  write_file_atomically(
+      path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()), false);
 }
 
 void extract_images(const std::string& file, const std::string& dir) {
-  const e57::Reader r(file);
   fs::create_directories(dir);
-  std::ofstream yaml(fs::path(dir) / "images.yaml");
+  // Claimed first: an unwritable folder fails before any image is read; images.yaml appears,
+  // complete, only after every image it lists.
+  AtomicFile yaml_file(fs::path(dir) / "images.yaml");
+  const e57::Reader r(file);
+  std::ostringstream yaml;
   yaml << "# Images of " << file << ". Pinhole intrinsics in pixels: fx = focal_length / "
        << "pixel_width, fy = focal_length / pixel_height.\n# pose: world_from_camera (E57 "
        << "rigidBodyTransform), translation in metres, quaternion w x y z.\nimages:\n";
@@ -196,12 +200,16 @@ void extract_images(const std::string& file, const std::string& dir) {
            << p.rotation.x << ", " << p.rotation.y << ", " << p.rotation.z << "]\n";
     }
   }
+  write_file_atomically(yaml_file.target(), yaml.str());
   std::cout << "wrote " << r.images().size() << " images and images.yaml to " << dir << "\n";
 }
 
 // Binary little-endian PLY of every valid cartesian point, in the file (world) frame unless
 // `local`; colour scaled to 0..255 by the scan's colorLimits.
 void to_ply(const std::string& file, const std::string& out, bool local) {
+  // Claimed before the scan is read: an unwritable output fails at once, and a failure later
+  // leaves an existing PLY as it was.
+  AtomicFile output(out);
   const e57::Reader r(file);
   bool colour = !r.scans().empty();
   std::uint64_t total = 0;
@@ -212,7 +220,7 @@ void to_ply(const std::string& file, const std::string& out, bool local) {
     colour = colour && (s.field_mask & field_bit(PointField::kColorRed));
     total += s.point_count;
   }
-  std::ofstream f(out, std::ios::binary);
+  std::ofstream f(output.temp_path(), std::ios::binary);
   const std::string count_marker = "element vertex ";
   f << "ply\nformat binary_little_endian 1.0\ncomment written by coloc e57 to-ply\n"
     << count_marker;
@@ -275,7 +283,9 @@ void to_ply(const std::string& file, const std::string& out, bool local) {
   std::snprintf(count, sizeof count, "%020llu", static_cast<unsigned long long>(written));
   f.seekp(count_pos);
   f.write(count, 20);
+  f.close();
   if (!f) throw CliFailure("cannot write " + out);
+  output.commit();
   std::cout << "wrote " << written << " points to " << out << "\n";
 }
 

@@ -29,7 +29,8 @@
 #include "slam/eval/trajectory_error.hpp"
 #include "slam/localize/frame_pacer.hpp"
 #include "slam/localize/localizer.hpp"
-#include "slam/mapdb/atomic_file.hpp"
+#include "slam/core/atomic_file.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc::cli {
 namespace {
@@ -62,6 +63,7 @@ struct LocalizeArgs {
 // cam_from_head (4x4, OpenCV YAML key `cam_from_head`, or `cam_from_headset` as the twin's
 // headset/calibration.yaml has it): the camera's mounting on the headset.
 SE3 read_cam_from_head(const fs::path& path) {
+  check_input_file(path, "cam-from-head file");
   cv::FileStorage file;
   try {
     file.open(path.string(), cv::FileStorage::READ);
@@ -186,7 +188,7 @@ std::optional<eval::AteResult> ate(const dataset::Sequence& sequence, const Traj
 }
 
 void write_trajectory(const fs::path& path, const Trajectory& trajectory) {
-  slam::mapdb::AtomicFile file(path);
+  AtomicFile file(path);
   write_tum_trajectory(file.temp_path(), trajectory);
   file.commit();
 }
@@ -273,7 +275,7 @@ void print_summary(const LocalizeArgs& args, const LocalizeInputs& in,
 
 void run_localize(const LocalizeArgs& args) {
   // Unwritable outputs are errors before the run, not after it.
-  std::optional<slam::mapdb::AtomicFile> probe;
+  std::optional<AtomicFile> probe;
   if (!args.trajectory.empty()) probe.emplace(args.trajectory);
   probe.reset();
   LocalizeInputs in = load_inputs(args);

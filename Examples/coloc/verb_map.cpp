@@ -25,7 +25,7 @@
 #include "slam/dataset/sequence.hpp"
 #include "slam/dataset/slice.hpp"
 #include "slam/eval/trajectory_error.hpp"
-#include "slam/mapdb/atomic_file.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/mapdb/mapdb.hpp"
 #include "slam/settings/settings.hpp"
 #include "slam/system/system.hpp"
@@ -84,7 +84,7 @@ void run_map(const MapArgs& given) {
   if (args.load.empty()) args.load = in.slam.settings.load_map;
   if (args.save.empty()) args.save = in.slam.settings.save_map;
   // An unwritable map destination is an error before the run, not after it.
-  if (!args.save.empty()) slam::mapdb::AtomicFile probe(args.save);
+  if (!args.save.empty()) AtomicFile probe(args.save);
   const RunOptions run{.sequential = args.sequential,
                        .global_ba = !args.no_global_ba,
                        .loop = !args.no_loop,

@@ -16,7 +16,7 @@
 #include "slam/core/error.hpp"
 #include "slam/core/progress.hpp"
 #include "slam/core/trajectory.hpp"
-#include "slam/mapdb/atomic_file.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/mapdb/mapdb.hpp"
 
 namespace coloc::cli {
@@ -103,7 +103,7 @@ void run_verify(const fs::path& file, const fs::path& vocabulary_path, bool json
 }
 
 void export_trajectory(const fs::path& file, const fs::path& out) {
-  mapdb::AtomicFile output(out);  // an unwritable output fails before the map is read
+  AtomicFile output(out);  // an unwritable output fails before the map is read
   const Trajectory t = mapdb::read_keyframe_trajectory(file);
   write_tum_trajectory(output.temp_path(), t);
   output.commit();
@@ -112,7 +112,7 @@ void export_trajectory(const fs::path& file, const fs::path& out) {
 }
 
 void export_ply(const fs::path& file, const fs::path& out, std::uint32_t min_observations) {
-  mapdb::AtomicFile output(out);
+  AtomicFile output(out);
   const mapdb::MapInfo info = mapdb::read_map_info(file);
   std::ofstream f(output.temp_path(), std::ios::binary);
   f << "ply\nformat binary_little_endian 1.0\ncomment coloc map points of "

@@ -22,7 +22,7 @@
 #include "registration/render/renderer.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
-#include "slam/mapdb/atomic_file.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/mapdb/mapdb.hpp"
 
 namespace coloc::cli {
@@ -161,7 +161,7 @@ void register_verb(const RegisterArgs& a) {
   cloud_options.check();
   // An unwritable output is an error before any work (the map is written later under a
   // temporary name and renamed).
-  { const slam::mapdb::AtomicFile probe(a.out); }
+  { const AtomicFile probe(a.out); }
   const markers::MarkerMap scan = markers::read_marker_map(a.markers);
   render::PointCloud cloud;
   align::ScanCloudStats cloud_stats;

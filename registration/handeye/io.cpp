@@ -10,6 +10,7 @@
 
 #include "slam/core/error.hpp"
 #include "slam/core/trajectory.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc::registration::handeye {
 
@@ -69,6 +70,7 @@ struct Reader {
 // Calls on_fields(fields) for every data line with the expected field count.
 template <typename Fn>
 void read_lines(const std::filesystem::path& path, std::size_t count, Fn on_fields) {
+  check_input_file(path, "pose file");
   std::ifstream in(path);
   if (!in) throw Error("cannot open file", {.file = path.string()});
   Reader reader{path, 0};
@@ -184,6 +186,7 @@ void write_calibration(const std::filesystem::path& path, const CalibrationFile&
 }
 
 CalibrationFile read_calibration(const std::filesystem::path& path) {
+  check_input_file(path, "pose file");
   std::ifstream in(path);
   if (!in) throw Error("cannot open file", {.file = path.string()});
   Reader reader{path, 0};

@@ -10,6 +10,7 @@
 
 #include "slam/bow/vocabulary.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc::slam::bow {
 namespace {
@@ -135,6 +136,7 @@ void Vocabulary::save(const std::filesystem::path& path) const {
 }
 
 Vocabulary Vocabulary::load(const std::filesystem::path& path) {
+  check_input_file(path, "vocabulary file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error("cannot open vocabulary file", {.file = path.string()});
   const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)),

@@ -7,10 +7,12 @@
 #include <sstream>
 
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc {
 
 Trajectory read_tum_trajectory(const std::filesystem::path& path) {
+  check_input_file(path, "trajectory file");
   std::ifstream in(path);
   if (!in) throw Error("cannot open trajectory file", {.file = path.string()});
   Trajectory trajectory;

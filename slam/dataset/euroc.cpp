@@ -14,6 +14,7 @@
 #include "slam/core/error.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/dataset/text_table.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc::dataset {
 namespace {
@@ -24,6 +25,7 @@ struct CameraInfo {
 };
 
 CameraInfo read_sensor_yaml(const std::filesystem::path& file) {
+  check_input_file(file, "sensor YAML");
   cv::FileStorage fs;
   try {
     fs.open(file.string(), cv::FileStorage::READ);

@@ -1,4 +1,4 @@
-#include "slam/mapdb/atomic_file.hpp"
+#include "slam/core/atomic_file.hpp"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -6,12 +6,13 @@
 
 #include <cerrno>
 #include <cstring>
+#include <fstream>
 #include <string>
 #include <system_error>
 
 #include "slam/core/error.hpp"
 
-namespace coloc::slam::mapdb {
+namespace coloc {
 
 namespace fs = std::filesystem;
 
@@ -86,4 +87,24 @@ void AtomicFile::remove_stale(const fs::path& target) {
   }
 }
 
-}  // namespace coloc::slam::mapdb
+void write_file_atomically(const fs::path& target, const std::function<void(std::ostream&)>& write,
+                           bool sync) {
+  AtomicFile file(target);
+  {
+    std::ofstream out(file.temp_path(), std::ios::binary | std::ios::trunc);
+    if (!out) throw Error("cannot open " + file.temp_path().string(), {target.string()});
+    write(out);
+    out.flush();
+    if (!out) throw Error("writing failed (disk full?)", {target.string()});
+  }
+  file.commit(sync);
+}
+
+void write_file_atomically(const fs::path& target, std::string_view bytes, bool sync) {
+  write_file_atomically(
+      target,
+      [bytes](std::ostream& out) { out.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); },
+      sync);
+}
+
+}  // namespace coloc
