@@ -2,9 +2,9 @@
 
 #include <cerrno>
 #include <cfloat>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cmath>
 #include <cstring>
 #include <pugixml.hpp>
 #include <sstream>

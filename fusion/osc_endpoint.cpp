@@ -205,8 +205,7 @@ std::optional<OscPacket> OscEndpoint::receive(int timeout_ms) {
   messages_ += decoded.messages.size();
   const double received =
       std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-  return OscPacket{
-      {ntohl(from.sin_addr.s_addr), ntohs(from.sin_port)}, decoded.messages, received};
+  return OscPacket{{ntohl(from.sin_addr.s_addr), ntohs(from.sin_port)}, decoded.messages, received};
 }
 
 OscStats OscEndpoint::stats() const {

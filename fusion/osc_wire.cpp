@@ -16,8 +16,8 @@ std::optional<std::size_t> osc_string_length(const std::uint8_t* data, std::size
                                              std::size_t offset) {
   const void* end = std::memchr(data + offset, 0, size - offset);
   if (end == nullptr) return std::nullopt;
-  const auto length = static_cast<std::size_t>(static_cast<const std::uint8_t*>(end) - data) -
-                      offset + 1;
+  const auto length =
+      static_cast<std::size_t>(static_cast<const std::uint8_t*>(end) - data) - offset + 1;
   const std::size_t total = padded(length);
   if (total > size - offset) return std::nullopt;
   return total;
@@ -32,13 +32,20 @@ std::optional<std::size_t> argument_size(char tag, const std::uint8_t* data, std
                                          std::size_t offset, std::string& error) {
   const std::size_t left = size - offset;
   switch (tag) {
-    case 'i': case 'f': case 'c': case 'r': case 'm':
+    case 'i':
+    case 'f':
+    case 'c':
+    case 'r':
+    case 'm':
       if (left < 4) break;
       return 4;
-    case 'h': case 't': case 'd':
+    case 'h':
+    case 't':
+    case 'd':
       if (left < 8) break;
       return 8;
-    case 's': case 'S':
+    case 's':
+    case 'S':
       if (const auto n = osc_string_length(data, size, offset)) return n;
       error = at(offset, std::string("unterminated string argument '") + tag + "'");
       return std::nullopt;
@@ -53,7 +60,12 @@ std::optional<std::size_t> argument_size(char tag, const std::uint8_t* data, std
       }
       return 4 + padded(n);
     }
-    case 'T': case 'F': case 'N': case 'I': case '[': case ']':
+    case 'T':
+    case 'F':
+    case 'N':
+    case 'I':
+    case '[':
+    case ']':
       return 0;
     default:
       error = at(offset, std::string("unknown type tag '") + tag + "'");
@@ -81,7 +93,8 @@ std::string check_osc_message(const std::uint8_t* data, std::size_t size) {
     if (!n) return error;
     offset += *n;
   }
-  if (offset != size) return at(offset, std::to_string(size - offset) + " bytes after the arguments");
+  if (offset != size)
+    return at(offset, std::to_string(size - offset) + " bytes after the arguments");
   return {};
 }
 

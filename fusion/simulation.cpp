@@ -9,8 +9,8 @@
 #include <string>
 
 #include "slam/core/error.hpp"
-#include "slam/core/timing.hpp"
 #include "slam/core/input_file.hpp"
+#include "slam/core/timing.hpp"
 
 namespace coloc::fusion {
 namespace {

@@ -27,9 +27,9 @@
 namespace coloc::fusion {
 
 struct StreamGuardOptions {
-  double max_time_lead = 1.0;             // s, see above
-  std::int64_t max_sequence_gap = 1000;   // messages that may be lost in a row
-  int resync_after = 5;                   // consistent rejected messages that re-anchor
+  double max_time_lead = 1.0;            // s, see above
+  std::int64_t max_sequence_gap = 1000;  // messages that may be lost in a row
+  int resync_after = 5;                  // consistent rejected messages that re-anchor
 
   void check() const;  // throws coloc::Error naming the field
 };

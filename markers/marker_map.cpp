@@ -6,6 +6,7 @@
 #include <opencv2/core.hpp>
 #include <string_view>
 
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/input_file.hpp"
 
@@ -116,9 +117,12 @@ Eigen::Vector3d MapMarker::normal() const {
 }
 
 void write_marker_map(const std::filesystem::path& path, const MarkerMap& map) {
+  // Composed in memory (OpenCV picks YAML or JSON from the name's extension) and written
+  // atomically; the output folder is checked before.
+  AtomicFile output(path);
   cv::FileStorage fs;
   try {
-    fs.open(path.string(), cv::FileStorage::WRITE);
+    fs.open(path.filename().string(), cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
   } catch (const cv::Exception& e) {
     throw Error(std::string("cannot write marker map: ") + e.what(), {.file = path.string()});
   }
@@ -150,7 +154,7 @@ void write_marker_map(const std::filesystem::path& path, const MarkerMap& map) {
        << "}";
   }
   fs << "]";
-  fs.release();
+  write_file_atomically(output.target(), fs.releaseAndGetString());
 }
 
 MarkerMap read_marker_map(const std::filesystem::path& path) {

@@ -15,13 +15,13 @@
 #include <string>
 #include <vector>
 
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 #include "slam/core/trajectory.hpp"
 #include "slam/dataset/sequence.hpp"
-#include "slam/core/atomic_file.hpp"
 #include "slam/settings/settings.hpp"
 #include "slam/system/system.hpp"
-#include "slam/core/input_file.hpp"
 
 namespace {
 

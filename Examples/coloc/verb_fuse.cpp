@@ -23,6 +23,7 @@
 #include "fusion/osc_node.hpp"
 #include "fusion/replay.hpp"
 #include "fusion/simulation.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/trajectory.hpp"
 
@@ -177,32 +178,54 @@ void run_node(const FuseArgs& a) {
   pthread_sigmask(SIG_SETMASK, &previous, nullptr);
 }
 
+// A recorded input without a single pose is an error naming the file (fusing nothing would
+// "succeed" with an empty output).
+Trajectory read_poses(const std::string& path) {
+  Trajectory t = read_tum_trajectory(path);
+  if (t.empty()) throw Error("no poses in the file (an empty trajectory)", {.file = path});
+  return t;
+}
+
+// Prints the statistics, then fails when nothing useful came out: no output at all, or no
+// global pose ever used (every output would be the raw, drifting input).
+void finish_replay(const Trajectory& fused, const fusion::FuserStats& stats, bool json) {
+  print_stats(stats, nullptr, json);
+  if (fused.empty()) throw CliFailure("no fused pose came out; nothing written");
+  if (stats.initialized == 0) {
+    throw CliFailure(
+        "no global pose could be used (none aligned in time with the input: check "
+        "both files are on one clock); the output would be the raw input");
+  }
+}
+
 // IMU mode on recorded files: an IMU log (EuRoC CSV) instead of headset poses; global poses
 // must be world_from_body (the IMU's frame). One fused pose per IMU sample once anchored.
 void run_imu_files(const FuseArgs& a) {
   fusion::ImuFuserOptions options;
   options.fuser = fuser_options(a);
+  const std::vector<fusion::ImuSample> imu = fusion::read_imu_csv(a.imu_file);
+  if (imu.empty()) throw Error("no IMU samples in the file", {.file = a.imu_file});
   const fusion::ImuReplay r =
-      fusion::replay_imu(fusion::read_imu_csv(a.imu_file),
-                         fusion::delayed(read_tum_trajectory(a.global_file), a.latency), options);
-  if (!a.out_file.empty()) write_tum_trajectory(a.out_file, r.fused);
+      fusion::replay_imu(imu, fusion::delayed(read_poses(a.global_file), a.latency), options);
+  if (!a.out_file.empty() && !r.fused.empty()) write_tum_trajectory(a.out_file, r.fused);
   if (!a.json) {
     std::printf("imu samples %llu (gaps %llu), integrator corrections %llu\n",
                 static_cast<unsigned long long>(r.imu.imu_samples),
                 static_cast<unsigned long long>(r.imu.gaps),
                 static_cast<unsigned long long>(r.imu.corrections));
   }
-  print_stats(r.fuser, nullptr, a.json);
+  finish_replay(r.fused, r.fuser, a.json);
 }
 
 // Replays recorded headset and global trajectories (TUM files, same clock) through the fuser;
 // global poses are delivered `latency` seconds after their stamp.
 void run_files(const FuseArgs& a) {
+  if (!a.out_file.empty()) const AtomicFile probe(a.out_file);
   const fusion::HeadsetReplay r = fusion::replay_headset(
-      read_tum_trajectory(a.xr_file),
-      fusion::delayed(read_tum_trajectory(a.global_file), a.latency), fuser_options(a));
-  if (!a.out_file.empty()) write_tum_trajectory(a.out_file, r.fused);
-  print_stats(r.stats, nullptr, a.json);
+      read_poses(a.xr_file), fusion::delayed(read_poses(a.global_file), a.latency),
+      fuser_options(a));
+  if (!a.out_file.empty() && !r.fused.empty()) write_tum_trajectory(a.out_file, r.fused);
+  finish_replay(r.fused, r.stats, a.json);
 }
 
 void add_filter_options(CLI::App& cmd, FuseArgs& a) {

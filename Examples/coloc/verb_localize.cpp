@@ -22,15 +22,15 @@
 #include "Examples/coloc/slam_inputs.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "fusion/osc_node.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 #include "slam/core/progress.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/eval/trajectory_error.hpp"
 #include "slam/localize/frame_pacer.hpp"
 #include "slam/localize/localizer.hpp"
-#include "slam/core/atomic_file.hpp"
-#include "slam/core/input_file.hpp"
 
 namespace coloc::cli {
 namespace {
@@ -188,9 +188,7 @@ std::optional<eval::AteResult> ate(const dataset::Sequence& sequence, const Traj
 }
 
 void write_trajectory(const fs::path& path, const Trajectory& trajectory) {
-  AtomicFile file(path);
-  write_tum_trajectory(file.temp_path(), trajectory);
-  file.commit();
+  write_tum_trajectory(path, trajectory);  // atomic (core AtomicOutput)
 }
 
 fusion::PoseServerOptions server_options(const LocalizeArgs& args) {
@@ -301,8 +299,16 @@ void run_localize(const LocalizeArgs& args) {
   replay(
       args, sequence, end, totals,
       [&](const dataset::Frame& frame, double time, bool first_replay) {
-        const LocalizationResult r = localizer.localize(
-            dataset::to_camera_order(frame.color, in.settings.rgb_order), frame.depth, time);
+        LocalizationResult r;
+        try {
+          r = localizer.localize(dataset::to_camera_order(frame.color, in.settings.rgb_order),
+                                 frame.depth, time);
+        } catch (const Error& e) {
+          // A frame that does not fit the camera is skipped and named, as unreadable ones are.
+          spdlog::warn("frame {} skipped ({}): {}", frame.index, frame.color_path.string(),
+                       e.what());
+          return;
+        }
         if (r.state == LocalizationState::kLost) {
           server->set_latest(fusion::PoseMessage::from_pose(time, sequence_number, 0, last_pose));
           return;
@@ -317,9 +323,16 @@ void run_localize(const LocalizeArgs& args) {
       });
   if (args.linger > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(args.linger));
   server->stop();
-  if (!args.trajectory.empty()) write_trajectory(args.trajectory, totals.trajectory);
+  if (!args.trajectory.empty() && !totals.trajectory.empty())
+    write_trajectory(args.trajectory, totals.trajectory);
 
   print_summary(args, in, localizer.stats(), totals, *server, published_name);
+  if (localizer.stats().localized == 0) {
+    // Nothing useful came out: a non-zero exit, not an empty trajectory and status 0.
+    throw CliFailure(
+        "no frame was localized in the map (a recording of another place, or the "
+        "wrong settings?); no trajectory written");
+  }
 }
 
 // Resident set size of this process (bytes), from /proc/self/statm; 0 when unreadable.

@@ -13,10 +13,10 @@
 #include "Examples/coloc/row_progress.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
 #include "Examples/coloc/verbs.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/progress.hpp"
 #include "slam/core/trajectory.hpp"
-#include "slam/core/atomic_file.hpp"
 #include "slam/mapdb/mapdb.hpp"
 
 namespace coloc::cli {
@@ -103,10 +103,9 @@ void run_verify(const fs::path& file, const fs::path& vocabulary_path, bool json
 }
 
 void export_trajectory(const fs::path& file, const fs::path& out) {
-  AtomicFile output(out);  // an unwritable output fails before the map is read
+  { const AtomicFile probe(out); }  // an unwritable output fails before the map is read
   const Trajectory t = mapdb::read_keyframe_trajectory(file);
-  write_tum_trajectory(output.temp_path(), t);
-  output.commit();
+  write_tum_trajectory(out, t);  // atomic
   std::cout << "wrote " << t.size() << " keyframe poses (world_from_cam, TUM format) to "
             << out.string() << "\n";
 }

@@ -24,9 +24,9 @@
 #include "markers/scan_markers.hpp"
 #include "markers/synthetic.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/settings/settings.hpp"
-#include "slam/core/input_file.hpp"
 
 namespace coloc::cli {
 namespace {

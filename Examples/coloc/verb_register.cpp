@@ -20,9 +20,9 @@
 #include "registration/align/register.hpp"
 #include "registration/align/scan_cloud.hpp"
 #include "registration/render/renderer.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
-#include "slam/core/atomic_file.hpp"
 #include "slam/mapdb/mapdb.hpp"
 
 namespace coloc::cli {
@@ -142,14 +142,7 @@ align::RegisterOptions options_of(const RegisterArgs& a) {
 // registration.json in the report directory (temporary file renamed over it).
 void write_report_json(const fs::path& dir, const std::string& summary) {
   fs::create_directories(dir);
-  const fs::path file = dir / "registration.json";
-  const fs::path tmp = dir / ("registration.json.tmp-" + std::to_string(::getpid()));
-  {
-    std::ofstream f(tmp);
-    f << Json::parse(summary).dump(2) << "\n";
-    if (!f) throw Error("cannot write the report", {.file = tmp.string()});
-  }
-  fs::rename(tmp, file);
+  write_file_atomically(dir / "registration.json", Json::parse(summary).dump(2) + "\n");
 }
 
 void register_verb(const RegisterArgs& a) {

@@ -87,23 +87,32 @@ void AtomicFile::remove_stale(const fs::path& target) {
   }
 }
 
+AtomicOutput::AtomicOutput(fs::path target, bool sync, std::ios::openmode mode)
+    : file_(std::move(target)), sync_(sync) {
+  open(file_.temp_path(), mode);
+  if (!is_open())
+    throw Error("cannot open " + file_.temp_path().string(), {file_.target().string()});
+}
+
+void AtomicOutput::commit() {
+  close();
+  if (fail()) throw Error("writing failed (disk full?)", {file_.target().string()});
+  file_.commit(sync_);
+}
+
 void write_file_atomically(const fs::path& target, const std::function<void(std::ostream&)>& write,
                            bool sync) {
-  AtomicFile file(target);
-  {
-    std::ofstream out(file.temp_path(), std::ios::binary | std::ios::trunc);
-    if (!out) throw Error("cannot open " + file.temp_path().string(), {target.string()});
-    write(out);
-    out.flush();
-    if (!out) throw Error("writing failed (disk full?)", {target.string()});
-  }
-  file.commit(sync);
+  AtomicOutput out(target, sync, std::ios::binary | std::ios::trunc);
+  write(out);
+  out.commit();
 }
 
 void write_file_atomically(const fs::path& target, std::string_view bytes, bool sync) {
   write_file_atomically(
       target,
-      [bytes](std::ostream& out) { out.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); },
+      [bytes](std::ostream& out) {
+        out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+      },
       sync);
 }
 

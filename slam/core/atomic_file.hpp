@@ -8,6 +8,7 @@
 //
 // Not thread-safe; one AtomicFile per output.
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <iosfwd>
 #include <string_view>
@@ -40,6 +41,24 @@ class AtomicFile {
   std::filesystem::path target_;
   std::filesystem::path temp_;
   bool committed_ = false;
+};
+
+// An output file stream on an AtomicFile, for writers that stream text or binary records:
+// write through it like any std::ofstream, then commit(). Destroyed without commit() (an
+// exception on the way), the target is untouched and the temporary removed.
+class AtomicOutput : public std::ofstream {
+ public:
+  // Claims the temporary at once (an unwritable target fails here, before any work).
+  explicit AtomicOutput(std::filesystem::path target, bool sync = true,
+                        std::ios::openmode mode = std::ios::out | std::ios::trunc);
+  // Closes the stream; a failed stream (disk full) is a coloc::Error naming the target, which
+  // then stays as it was. Otherwise renames the temporary over the target.
+  void commit();
+  const std::filesystem::path& target() const { return file_.target(); }
+
+ private:
+  AtomicFile file_;
+  bool sync_;
 };
 
 // Writes `write(stream)` into the target atomically. A stream that fails (disk full, a write

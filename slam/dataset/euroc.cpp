@@ -12,9 +12,9 @@
 #include <opencv2/core.hpp>
 
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/dataset/text_table.hpp"
-#include "slam/core/input_file.hpp"
 
 namespace coloc::dataset {
 namespace {

@@ -47,20 +47,23 @@ std::string read_text(const std::filesystem::path& path) {
     if (text.size() > kMaxSettingsBytes)
       throw Error("larger than 1 MiB: not a settings file", {.file = path.string()});
   }
+  return text;
+}
+
+void check_text(const std::string& text, const std::filesystem::path& path) {
   if (const auto nul = text.find('\0'); nul != std::string::npos) {
     throw Error("binary data (a NUL byte): not a YAML settings file",
                 {.file = path.string(), .offset = nul});
   }
   check_document_markers(text, path);
-  return text;
 }
 
 // Typed access to the top-level keys of one file, remembering which keys were used so the
 // rest can be reported.
 class KeyReader {
  public:
-  explicit KeyReader(const std::filesystem::path& path) : path_(path) {
-    const std::string text = read_text(path);
+  KeyReader(const std::string& text, const std::filesystem::path& path) : path_(path) {
+    check_text(text, path);
     try {
       if (!storage_.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY)) {
         throw Error("cannot open settings file", {.file = path.string()});
@@ -229,8 +232,8 @@ std::filesystem::path map_file(KeyReader& keys, const std::string& key) {
   return p;
 }
 
-Settings read_settings(const std::filesystem::path& path) {
-  KeyReader keys(path);
+Settings read_settings(const std::string& text, const std::filesystem::path& path) {
+  KeyReader keys(text, path);
   Settings s;
   s.source = path;
   if (const auto version = keys.text("File.version")) {
@@ -269,12 +272,15 @@ Settings read_settings(const std::filesystem::path& path) {
 
 Settings load_settings(const std::filesystem::path& path) {
   check_input_file(path, "settings file");
+  return parse_settings(read_text(path), path.string());
+}
+
+Settings parse_settings(const std::string& text, const std::string& source) {
   try {
-    return read_settings(path);
+    return read_settings(text, source);
   } catch (const cv::Exception& e) {
     // OpenCV asserts on some malformed nodes only when they are read.
-    throw Error("not a readable YAML settings file (" + std::string(e.err) + ")",
-                {.file = path.string()});
+    throw Error("not a readable YAML settings file (" + std::string(e.err) + ")", {.file = source});
   }
 }
 

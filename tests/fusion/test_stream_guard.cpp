@@ -37,12 +37,12 @@ TEST(OscWire, EveryArgumentTypeIsMeasuredAgainstTheDatagram) {
   // A complete message with every type liblo knows; each of its truncations must be refused.
   std::vector<std::uint8_t> m = bytes(std::string_view("/all\0\0\0\0,ifhdsbTFNI[]\0\0\0\0", 24));
   const auto add = [&m](std::initializer_list<std::uint8_t> b) { m.insert(m.end(), b); };
-  add({0, 0, 0, 1});                                  // i
-  add({0x3f, 0x80, 0, 0});                            // f
-  add({0, 0, 0, 0, 0, 0, 0, 2});                      // h
-  add({0x3f, 0xf0, 0, 0, 0, 0, 0, 0});                // d
-  add({'a', 'b', 'c', 0});                            // s
-  add({0, 0, 0, 5, 1, 2, 3, 4, 5, 0, 0, 0});          // b: 5 bytes + 3 padding
+  add({0, 0, 0, 1});                          // i
+  add({0x3f, 0x80, 0, 0});                    // f
+  add({0, 0, 0, 0, 0, 0, 0, 2});              // h
+  add({0x3f, 0xf0, 0, 0, 0, 0, 0, 0});        // d
+  add({'a', 'b', 'c', 0});                    // s
+  add({0, 0, 0, 5, 1, 2, 3, 4, 5, 0, 0, 0});  // b: 5 bytes + 3 padding
   EXPECT_EQ(check(m), "");
   for (std::size_t n = 0; n < m.size(); ++n) {
     const std::vector<std::uint8_t> cut(m.begin(), m.begin() + static_cast<std::ptrdiff_t>(n));

@@ -160,9 +160,9 @@ TEST(Settings, PhysicallyImpossibleValuesNameTheKey) {
   const std::string depth = std::string(kMinimal) + "Camera.bf: 40.0\nThDepth: 40.0\n";
   expect_error(write("zero_scale.yaml", depth + "DepthMapFactor: 0.0\n"), "DepthMapFactor");
   expect_error(write("nan_scale.yaml", depth + "DepthMapFactor: .nan\n"), "DepthMapFactor");
-  expect_error(write("huge_features.yaml", std::string(kMinimal) +
-                                               "ORBextractor.nFeatures: 1000000000\n"),
-               "ORBextractor.nFeatures");
+  expect_error(
+      write("huge_features.yaml", std::string(kMinimal) + "ORBextractor.nFeatures: 1000000000\n"),
+      "ORBextractor.nFeatures");
   expect_error(write("overflow.yaml", std::string(kMinimal) + "ORBextractor.nLevels: 1e30\n"),
                "ORBextractor.nLevels");
   expect_error(write("inf_fx.yaml", "Camera.fx: .inf\nCamera.fy: 1\nCamera.cx: 1\nCamera.cy: 1\n"),

@@ -4,8 +4,8 @@
 // outcome of bad input; any other exception, crash, hang or sanitizer report is a finding, and
 // so is a "successful" load with values no camera has.
 
-#include <sys/mman.h>
 #include <spdlog/spdlog.h>
+#include <sys/mman.h>
 #include <unistd.h>
 
 #include <cmath>
