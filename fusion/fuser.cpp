@@ -32,7 +32,7 @@ SE3 step_toward(const SE3& current, const SE3& target, double max_distance, doub
 }
 
 DriftFuser::DriftFuser(FuserOptions options)
-    : options_(std::move(options)), buffer_(options_.buffer_seconds) {
+    : options_(options), buffer_(options_.buffer_seconds) {
   options_.check();
 }
 

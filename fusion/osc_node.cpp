@@ -104,7 +104,7 @@ void FusionNode::stop() {
 
 FusedPose FusionNode::push_xr_locked(double time, const SE3& xr_from_head) {
   const std::uint64_t before = fuser_.stats().xr_poses;
-  const FusedPose out = fuser_.push_xr_pose(time, xr_from_head);
+  FusedPose out = fuser_.push_xr_pose(time, xr_from_head);
   if (fuser_.stats().xr_poses != before && !endpoint_.targets().empty()) {
     const auto message = PoseMessage::from_pose(
         out.time, next_sequence_++, static_cast<std::int32_t>(out.state), out.world_from_head);

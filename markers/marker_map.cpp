@@ -28,7 +28,9 @@ class Reader {
                  std::initializer_list<const char*> allowed) const {
     for (const std::string& key : node.keys()) {
       if (std::none_of(allowed.begin(), allowed.end(), [&](const char* a) { return key == a; })) {
-        fail("unknown key", where.empty() ? key : where + "." + key);
+        std::string field = where;
+        if (!field.empty()) field += '.';
+        fail("unknown key", field + key);
       }
     }
   }

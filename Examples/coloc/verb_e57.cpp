@@ -204,6 +204,59 @@ void extract_images(const std::string& file, const std::string& dir) {
   std::cout << "wrote " << r.images().size() << " images and images.yaml to " << dir << "\n";
 }
 
+// Appends the valid points of scan `si` as PLY records; returns how many.
+std::uint64_t append_scan_points(const e57::Reader& r, std::size_t si, bool colour, bool local,
+                                 std::ostream& f, Progress& progress) {
+  std::uint64_t written = 0;
+  const e57::Data3D& s = r.scans()[si];
+  const e57::Pose pose = (s.pose && !local) ? *s.pose : e57::Pose{};
+  const Eigen::Quaterniond q =
+      Eigen::Quaterniond(pose.rotation.w, pose.rotation.x, pose.rotation.y, pose.rotation.z)
+          .normalized();
+  const Eigen::Matrix3d rotation = q.toRotationMatrix();
+  const Eigen::Vector3d t(pose.translation.x, pose.translation.y, pose.translation.z);
+  std::uint32_t mask = field_bit(PointField::kCartesianX) | field_bit(PointField::kCartesianY) |
+                       field_bit(PointField::kCartesianZ);
+  if (s.field_mask & field_bit(PointField::kCartesianInvalidState)) {
+    mask |= field_bit(PointField::kCartesianInvalidState);
+  }
+  if (colour) {
+    mask |= field_bit(PointField::kColorRed) | field_bit(PointField::kColorGreen) |
+            field_bit(PointField::kColorBlue);
+  }
+  const e57::ColorLimits lim = s.color_limits.value_or(e57::ColorLimits{0, 255, 0, 255, 0, 255});
+  auto to_byte = [](double v, double lo, double hi) {
+    const double x = hi > lo ? (v - lo) / (hi - lo) * 255.0 : v;
+    return static_cast<std::uint8_t>(std::clamp(x + 0.5, 0.0, 255.0));
+  };
+  e57::PointStream stream = r.open_points(si, mask);
+  e57::PointBuffer b;
+  std::vector<char> rec;
+  while (const std::size_t n = stream.read(b, 1 << 16)) {
+    rec.clear();
+    for (std::size_t i = 0; i < n; ++i) {
+      if (b.present(PointField::kCartesianInvalidState) && b.cartesian_invalid_state[i] != 0) {
+        continue;
+      }
+      const Eigen::Vector3d p =
+          rotation * Eigen::Vector3d(b.cartesian_x[i], b.cartesian_y[i], b.cartesian_z[i]) + t;
+      const float xyz[3] = {static_cast<float>(p.x()), static_cast<float>(p.y()),
+                            static_cast<float>(p.z())};
+      rec.insert(rec.end(), reinterpret_cast<const char*>(xyz),
+                 reinterpret_cast<const char*>(xyz) + sizeof xyz);
+      if (colour) {
+        rec.push_back(static_cast<char>(to_byte(b.color_red[i], lim.red_min, lim.red_max)));
+        rec.push_back(static_cast<char>(to_byte(b.color_green[i], lim.green_min, lim.green_max)));
+        rec.push_back(static_cast<char>(to_byte(b.color_blue[i], lim.blue_min, lim.blue_max)));
+      }
+      ++written;
+    }
+    f.write(rec.data(), static_cast<std::streamsize>(rec.size()));
+    progress.advance(n);
+  }
+  return written;
+}
+
 // Binary little-endian PLY of every valid cartesian point, in the file (world) frame unless
 // `local`; colour scaled to 0..255 by the scan's colorLimits.
 void to_ply(const std::string& file, const std::string& out, bool local) {
@@ -230,54 +283,8 @@ void to_ply(const std::string& file, const std::string& out, bool local) {
   f << "end_header\n";
   std::uint64_t written = 0;
   Progress progress("to-ply", total);
-  for (std::size_t si = 0; si < r.scans().size(); ++si) {
-    const e57::Data3D& s = r.scans()[si];
-    const e57::Pose pose = (s.pose && !local) ? *s.pose : e57::Pose{};
-    const Eigen::Quaterniond q =
-        Eigen::Quaterniond(pose.rotation.w, pose.rotation.x, pose.rotation.y, pose.rotation.z)
-            .normalized();
-    const Eigen::Matrix3d rotation = q.toRotationMatrix();
-    const Eigen::Vector3d t(pose.translation.x, pose.translation.y, pose.translation.z);
-    std::uint32_t mask = field_bit(PointField::kCartesianX) | field_bit(PointField::kCartesianY) |
-                         field_bit(PointField::kCartesianZ);
-    if (s.field_mask & field_bit(PointField::kCartesianInvalidState)) {
-      mask |= field_bit(PointField::kCartesianInvalidState);
-    }
-    if (colour) {
-      mask |= field_bit(PointField::kColorRed) | field_bit(PointField::kColorGreen) |
-              field_bit(PointField::kColorBlue);
-    }
-    const e57::ColorLimits lim = s.color_limits.value_or(e57::ColorLimits{0, 255, 0, 255, 0, 255});
-    auto to_byte = [](double v, double lo, double hi) {
-      const double x = hi > lo ? (v - lo) / (hi - lo) * 255.0 : v;
-      return static_cast<std::uint8_t>(std::clamp(x + 0.5, 0.0, 255.0));
-    };
-    e57::PointStream stream = r.open_points(si, mask);
-    e57::PointBuffer b;
-    std::vector<char> rec;
-    while (const std::size_t n = stream.read(b, 1 << 16)) {
-      rec.clear();
-      for (std::size_t i = 0; i < n; ++i) {
-        if (b.present(PointField::kCartesianInvalidState) && b.cartesian_invalid_state[i] != 0) {
-          continue;
-        }
-        const Eigen::Vector3d p =
-            rotation * Eigen::Vector3d(b.cartesian_x[i], b.cartesian_y[i], b.cartesian_z[i]) + t;
-        const float xyz[3] = {static_cast<float>(p.x()), static_cast<float>(p.y()),
-                              static_cast<float>(p.z())};
-        rec.insert(rec.end(), reinterpret_cast<const char*>(xyz),
-                   reinterpret_cast<const char*>(xyz) + sizeof xyz);
-        if (colour) {
-          rec.push_back(static_cast<char>(to_byte(b.color_red[i], lim.red_min, lim.red_max)));
-          rec.push_back(static_cast<char>(to_byte(b.color_green[i], lim.green_min, lim.green_max)));
-          rec.push_back(static_cast<char>(to_byte(b.color_blue[i], lim.blue_min, lim.blue_max)));
-        }
-        ++written;
-      }
-      f.write(rec.data(), static_cast<std::streamsize>(rec.size()));
-      progress.advance(n);
-    }
-  }
+  for (std::size_t si = 0; si < r.scans().size(); ++si)
+    written += append_scan_points(r, si, colour, local, f, progress);
   progress.finish();
   char count[21];
   std::snprintf(count, sizeof count, "%020llu", static_cast<unsigned long long>(written));
@@ -303,7 +310,7 @@ double peak_memory_mib() {
 }
 
 fs::path generate_synthetic(std::size_t n) {
-  const fs::path path = fs::temp_directory_path() / "coloc_bench_e57.e57";
+  fs::path path = fs::temp_directory_path() / "coloc_bench_e57.e57";
   Progress progress("writing synthetic E57", n);
   e57::write_synthetic_scan(path, n, 1 << 18, [&](std::size_t done) { progress.set(done); });
   progress.finish();

@@ -75,10 +75,14 @@ def check_e57_outputs(coloc, data, tmp):
         whole = f.read()
     with open(bad, "wb") as f:
         f.write(whole[: len(whole) // 2])  # cut in half: the XML section is gone
-    # One flipped byte in the first data page: the file opens, reading its points fails midway.
+    # One flipped byte in a page of a larger scan: a checksum error after the output was claimed.
+    with open(os.path.join(data, "e57", "libE57Format-test-data", "self",
+                           "ColouredCubeFloat.e57"), "rb") as f:
+        cube = f.read()
     flipped = os.path.join(tmp, "flipped.e57")
+    at = 20 * 1024 + 500
     with open(flipped, "wb") as f:
-        f.write(whole[:1100] + bytes([whole[1100] ^ 0xFF]) + whole[1101:])
+        f.write(cube[:at] + bytes([cube[at] ^ 0xFF]) + cube[at + 1:])
     ply = os.path.join(tmp, "out.ply")
     check(run(coloc, "e57", "to-ply", good, ply).returncode == 0, "e57 to-ply of a good file")
     with open(ply, "rb") as f:
@@ -142,6 +146,8 @@ def check_wrong_depth_size(coloc, data, tmp):
         ok = j["skipped_frames"] == 1 and j["tracked"] > 20
     check(ok and os.path.basename(wrong) in r.stderr and "320x240" in r.stderr,
           "a depth image of the wrong size is skipped and named, the run goes on")
+    if not ok:
+        print(r.stdout, r.stderr[-1500:])
 
 
 def main():
