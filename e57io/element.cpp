@@ -2,6 +2,7 @@
 
 #include <cerrno>
 #include <cfloat>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -104,6 +105,14 @@ void parse_element(const pugi::xml_node& node, Element& e, const ParseContext& c
       if (e.type == ElementType::kScaledInteger) {
         e.scale = parse_double(node.attribute("scale").value(), 1.0, ctx, p, "scale");
         e.offset = parse_double(node.attribute("offset").value(), 0.0, ctx, p, "offset");
+        // Every decoded value is int * scale + offset: a zero or non-finite scale turns all of
+        // them into 0 or NaN while the file still "reads".
+        if (!std::isfinite(e.scale) || e.scale == 0.0) {
+          throw ctx.fail("ScaledInteger scale must be finite and non-zero, got '" +
+                             std::string(node.attribute("scale").value()) + "'",
+                         p);
+        }
+        if (!std::isfinite(e.offset)) throw ctx.fail("ScaledInteger offset must be finite", p);
       }
       if (e.int_minimum > e.int_maximum) throw ctx.fail("minimum > maximum", p);
       break;

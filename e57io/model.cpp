@@ -193,6 +193,30 @@ Data3D data3d_from_element(const Element& scan) {
   return d;
 }
 
+namespace {
+
+// What a camera can have: an image of at least one pixel (and not more than a million on a
+// side), pixel sizes and focal length that are not negative or non-finite.
+void check_image_geometry(const Image2D& im, const Element& rep) {
+  const auto fail = [&rep](const char* field, const std::string& what) {
+    throw Error(what, {.element = rep.path + "/" + field});
+  };
+  constexpr std::int64_t kMaxSide = 1000000;
+  if (im.width < 1 || im.width > kMaxSide)
+    fail("imageWidth", "image width " + std::to_string(im.width) + " is not in 1..1000000");
+  if (im.height < 1 || im.height > kMaxSide)
+    fail("imageHeight", "image height " + std::to_string(im.height) + " is not in 1..1000000");
+  // 0 = absent (files in the wild leave pixel sizes out); negative or non-finite is damage.
+  if (!(std::isfinite(im.pixel_width) && im.pixel_width >= 0.0))
+    fail("pixelWidth", "pixel width must be a positive number");
+  if (!(std::isfinite(im.pixel_height) && im.pixel_height >= 0.0))
+    fail("pixelHeight", "pixel height must be a positive number");
+  if (!(std::isfinite(im.focal_length) && im.focal_length >= 0.0))
+    fail("focalLength", "focal length must be a positive number");
+}
+
+}  // namespace
+
 Image2D image2d_from_element(const Element& image) {
   if (image.type != ElementType::kStructure) {
     throw Error("images2D entry is not a Structure", {.element = image.path});
@@ -248,6 +272,7 @@ Image2D image2d_from_element(const Element& image) {
   im.principal_point_x = get_number(*rep, "principalPointX");
   im.principal_point_y = get_number(*rep, "principalPointY");
   im.radius = get_number(*rep, "radius");
+  check_image_geometry(im, *rep);
   return im;
 }
 

@@ -1,6 +1,7 @@
 #include "e57io/paged_file.hpp"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -89,6 +90,17 @@ FileHeader decode_header(const std::uint8_t in[kHeaderSize], const std::string& 
 PagedReader::PagedReader(const std::filesystem::path& path, ChecksumPolicy policy)
     : path_(path.string()), policy_(policy) {
   policy_.check();
+  // Checked before open(): opening a FIFO blocks until a writer appears, and a directory or a
+  // device is no E57 file either.
+  struct stat info {};
+  if (::stat(path_.c_str(), &info) != 0)
+    throw Error(std::string("cannot open: ") + std::strerror(errno), {.file = path_});
+  if (!S_ISREG(info.st_mode)) {
+    throw Error(S_ISDIR(info.st_mode)    ? "is a directory, not an E57 file"
+                : S_ISFIFO(info.st_mode) ? "is a FIFO (named pipe), not an E57 file"
+                                         : "is not a regular file",
+                {.file = path_});
+  }
   fd_ = ::open(path_.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd_ < 0) throw Error(std::string("cannot open: ") + std::strerror(errno), {.file = path_});
   const off_t size = ::lseek(fd_, 0, SEEK_END);

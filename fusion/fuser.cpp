@@ -32,7 +32,7 @@ SE3 step_toward(const SE3& current, const SE3& target, double max_distance, doub
 }
 
 DriftFuser::DriftFuser(FuserOptions options)
-    : options_(std::move(options)), buffer_(options_.buffer_seconds) {
+    : options_(options), buffer_(options_.buffer_seconds) {
   options_.check();
 }
 
@@ -65,6 +65,17 @@ FusedPose DriftFuser::push_xr_pose(double time, const SE3& xr_from_head) {
   }
   latest_ = {time, applied_ * xr_from_head, state};
   return latest_;
+}
+
+void DriftFuser::restart_xr_clock() {
+  buffer_.clear();
+  have_xr_ = false;
+  last_accepted_time_ = -1e300;
+}
+
+void DriftFuser::restart_global_clock() {
+  last_global_time_ = -1e300;
+  last_accepted_time_ = -1e300;
 }
 
 GateDecision DriftFuser::push_global_pose(double time, const SE3& world_from_head,

@@ -78,6 +78,12 @@ class DriftFuser {
   GateDecision push_global_pose(double time, const SE3& world_from_head,
                                 TrackingState tracking = TrackingState::kTracking);
 
+  // A sender's clock was re-anchored (restarted sender, stepped clock; stream_guard.hpp): forget
+  // that stream's time history so messages on the new clock are taken. D is kept; after a
+  // headset restart the state is holding until a global pose on the new clock is accepted.
+  void restart_xr_clock();
+  void restart_global_clock();
+
   const FusedPose& latest() const { return latest_; }
   FusionState state() const { return latest_.state; }
   const FuserStats& stats() const { return stats_; }

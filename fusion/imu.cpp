@@ -8,10 +8,12 @@
 #include <utility>
 
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc::fusion {
 
 std::vector<ImuSample> read_imu_csv(const std::filesystem::path& path) {
+  check_input_file(path, "IMU log");
   std::ifstream in(path);
   if (!in) throw Error("cannot open the IMU log", ErrorContext{.file = path.string()});
   std::vector<ImuSample> samples;

@@ -7,6 +7,8 @@
 #include <cstring>
 #include <memory>
 
+#include "fusion/osc_wire.hpp"
+
 namespace coloc::fusion {
 namespace {
 
@@ -76,6 +78,12 @@ void decode_message(const std::uint8_t* data, std::size_t size, OscDecodeResult&
   std::array<std::uint8_t, 4096> copy{};
   if (size > copy.size()) {
     set_error(result, OscError::kOversized, "message larger than 4096 bytes");
+    return;
+  }
+  // liblo reads whatever the type tags promise; it only gets messages whose every argument is
+  // known to lie inside the datagram.
+  if (const std::string reason = check_osc_message(data, size); !reason.empty()) {
+    set_error(result, OscError::kMalformed, "not an OSC message: " + reason);
     return;
   }
   std::memcpy(copy.data(), data, size);

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cstring>
 #include <mutex>
 #include <string>
@@ -202,7 +203,9 @@ std::optional<OscPacket> OscEndpoint::receive(int timeout_ms) {
   count_error(decoded.error, decoded.detail);
   if (decoded.messages.empty()) return std::nullopt;
   messages_ += decoded.messages.size();
-  return OscPacket{{ntohl(from.sin_addr.s_addr), ntohs(from.sin_port)}, decoded.messages};
+  const double received =
+      std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+  return OscPacket{{ntohl(from.sin_addr.s_addr), ntohs(from.sin_port)}, decoded.messages, received};
 }
 
 OscStats OscEndpoint::stats() const {

@@ -60,6 +60,7 @@ struct OscStats {
 struct OscPacket {
   OscPeer from;
   std::vector<OscMessage> messages;  // never empty
+  double received = 0.0;             // s, steady clock at arrival (plausibility of message times)
 };
 
 class OscEndpoint {

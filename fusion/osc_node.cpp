@@ -4,15 +4,6 @@
 
 namespace coloc::fusion {
 
-bool SequenceGuard::accept(std::int32_t sequence) {
-  if (have_ && sequence <= last_ && static_cast<std::int64_t>(last_) - sequence <= kRestartWindow) {
-    return false;
-  }
-  have_ = true;
-  last_ = sequence;
-  return true;
-}
-
 ReceiverThread::ReceiverThread(OscEndpoint& endpoint, Handler handler)
     : endpoint_(endpoint), handler_(std::move(handler)) {}
 
@@ -93,6 +84,8 @@ FusionNode::FusionNode(FusionNodeOptions options)
     : options_(std::move(options)),
       endpoint_(options_.endpoint),
       fuser_(options_.fuser),
+      global_stream_(options_.streams),
+      xr_stream_(options_.streams),
       receiver_(endpoint_, [this](const OscPacket& p) { handle(p); }) {
   for (const std::string& url : options_.publish)
     endpoint_.add_target(url);
@@ -111,7 +104,7 @@ void FusionNode::stop() {
 
 FusedPose FusionNode::push_xr_locked(double time, const SE3& xr_from_head) {
   const std::uint64_t before = fuser_.stats().xr_poses;
-  const FusedPose out = fuser_.push_xr_pose(time, xr_from_head);
+  FusedPose out = fuser_.push_xr_pose(time, xr_from_head);
   if (fuser_.stats().xr_poses != before && !endpoint_.targets().empty()) {
     const auto message = PoseMessage::from_pose(
         out.time, next_sequence_++, static_cast<std::int32_t>(out.state), out.world_from_head);
@@ -142,28 +135,48 @@ FusionNodeStats FusionNode::stats() const {
   const std::lock_guard lock(mutex_);
   s.fuser = fuser_.stats();
   s.out_of_order = out_of_order_;
+  s.implausible = implausible_;
+  s.resyncs = resyncs_;
   s.published = published_;
   s.requests_answered = answered_;
   return s;
+}
+
+bool FusionNode::admit(StreamGuard& guard, const PoseMessage& pose, double received, bool xr) {
+  switch (guard.check(pose.sequence, pose.time, received)) {
+    case StreamVerdict::kAccepted:
+      return true;
+    case StreamVerdict::kResynced:
+      // The stream moved to a new clock or sender: the fuser's history of it would reject every
+      // message from now on.
+      ++resyncs_;
+      if (xr) {
+        fuser_.restart_xr_clock();
+      } else {
+        fuser_.restart_global_clock();
+      }
+      return true;
+    case StreamVerdict::kStale:
+      ++out_of_order_;
+      return false;
+    case StreamVerdict::kImplausible:
+      ++implausible_;
+      return false;
+  }
+  return false;
 }
 
 void FusionNode::handle(const OscPacket& packet) {
   const std::lock_guard lock(mutex_);
   for (const OscMessage& m : packet.messages) {
     if (m.address == kPoseAddress) {
-      if (!global_sequence_.accept(m.pose.sequence)) {
-        ++out_of_order_;
-        continue;
-      }
+      if (!admit(global_stream_, m.pose, packet.received, false)) continue;
       const auto state = m.pose.state == 0   ? TrackingState::kLost
                          : m.pose.state == 2 ? TrackingState::kRelocalized
                                              : TrackingState::kTracking;
       fuser_.push_global_pose(m.pose.time, m.pose.pose(), state);
     } else if (m.address == kXrPoseAddress) {
-      if (!xr_sequence_.accept(m.pose.sequence)) {
-        ++out_of_order_;
-        continue;
-      }
+      if (!admit(xr_stream_, m.pose, packet.received, true)) continue;
       push_xr_locked(m.pose.time, m.pose.pose());
     } else if (m.address == kGetPoseAddress) {
       const FusedPose& f = fuser_.latest();

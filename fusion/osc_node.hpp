@@ -22,20 +22,9 @@
 #include "fusion/fuser.hpp"
 #include "fusion/osc.hpp"
 #include "fusion/osc_endpoint.hpp"
+#include "fusion/stream_guard.hpp"
 
 namespace coloc::fusion {
-
-// Accepts increasing sequence numbers per stream; a jump back by more than kRestartWindow is
-// taken as a restarted sender and accepted. Not thread-safe (owned under a node's lock).
-class SequenceGuard {
- public:
-  static constexpr std::int64_t kRestartWindow = 1000;
-  bool accept(std::int32_t sequence);
-
- private:
-  bool have_ = false;
-  std::int32_t last_ = 0;
-};
 
 // Runs handler(packet) for every packet received on an endpoint, on its own thread.
 class ReceiverThread {
@@ -97,12 +86,15 @@ struct FusionNodeOptions {
   OscEndpointOptions endpoint;
   std::vector<std::string> publish;  // targets of /coloc/fused_pose
   bool bundles = false;
+  StreamGuardOptions streams;  // plausibility of each incoming stream (stream_guard.hpp)
 };
 
 struct FusionNodeStats {
   FuserStats fuser;
   OscStats osc;
-  std::uint64_t out_of_order = 0;  // OSC messages dropped for an old sequence number
+  std::uint64_t out_of_order = 0;  // OSC messages dropped as stale (older sequence and time)
+  std::uint64_t implausible = 0;   // OSC messages dropped as out of line (time or sequence jump)
+  std::uint64_t resyncs = 0;       // streams re-anchored (restarted sender, clock step)
   std::uint64_t published = 0;     // /coloc/fused_pose messages sent (per target)
   std::uint64_t requests_answered = 0;
 };
@@ -129,15 +121,19 @@ class FusionNode {
 
  private:
   FusedPose push_xr_locked(double time, const SE3& xr_from_head);
+  // Passes one stream's message through its guard; false = dropped (counted).
+  bool admit(StreamGuard& guard, const PoseMessage& pose, double received, bool xr);
 
   FusionNodeOptions options_;
   OscEndpoint endpoint_;
   mutable std::mutex mutex_;  // guards the fuser and the sequence state below
   DriftFuser fuser_;
-  SequenceGuard global_sequence_;
-  SequenceGuard xr_sequence_;
+  StreamGuard global_stream_;
+  StreamGuard xr_stream_;
   std::int32_t next_sequence_ = 0;
   std::uint64_t out_of_order_ = 0;
+  std::uint64_t implausible_ = 0;
+  std::uint64_t resyncs_ = 0;
   std::uint64_t published_ = 0;
   std::uint64_t answered_ = 0;
   ReceiverThread receiver_;

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 #include "slam/core/timing.hpp"
 
 namespace coloc::fusion {
@@ -202,6 +203,7 @@ ErrorMetrics evaluate_trajectory(const Trajectory& estimate, const Trajectory& t
 }
 
 StaticLogStats analyze_static_drift_log(const std::filesystem::path& path, double rate) {
+  check_input_file(path, "drift log");
   std::ifstream in(path);
   if (!in) throw Error("cannot open the drift log", ErrorContext{.file = path.string()});
   std::vector<Eigen::Vector3d> positions;

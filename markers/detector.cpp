@@ -11,6 +11,7 @@
 #include "markers/dictionary.hpp"
 #include "markers/edge_refine.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc::markers {
 namespace {
@@ -126,6 +127,7 @@ void DetectorOptions::check() const {
 
 void read_detector_parameters(const std::filesystem::path& path,
                               cv::aruco::DetectorParameters& parameters) {
+  check_input_file(path, "detector parameters file");
   const ErrorContext ctx{.file = path.string()};
   cv::FileStorage fs;
   try {

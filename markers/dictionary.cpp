@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc::markers {
 namespace {
@@ -51,7 +52,7 @@ bool looks_like_file(const std::string& s) {
 
 cv::Ptr<cv::aruco::Dictionary> read_custom_dictionary(const std::string& path) {
   ErrorContext ctx{.file = path};
-  if (!std::filesystem::exists(path)) throw Error("dictionary file does not exist", ctx);
+  check_input_file(path, "dictionary file");
   cv::FileStorage fs;
   try {
     fs.open(path, cv::FileStorage::READ);

@@ -6,7 +6,9 @@
 #include <opencv2/core.hpp>
 #include <string_view>
 
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc::markers {
 namespace {
@@ -26,7 +28,9 @@ class Reader {
                  std::initializer_list<const char*> allowed) const {
     for (const std::string& key : node.keys()) {
       if (std::none_of(allowed.begin(), allowed.end(), [&](const char* a) { return key == a; })) {
-        fail("unknown key", where.empty() ? key : where + "." + key);
+        std::string field = where;
+        if (!field.empty()) field += '.';
+        fail("unknown key", field + key);
       }
     }
   }
@@ -115,9 +119,12 @@ Eigen::Vector3d MapMarker::normal() const {
 }
 
 void write_marker_map(const std::filesystem::path& path, const MarkerMap& map) {
+  // Composed in memory (OpenCV picks YAML or JSON from the name's extension) and written
+  // atomically; the output folder is checked before.
+  AtomicFile output(path);
   cv::FileStorage fs;
   try {
-    fs.open(path.string(), cv::FileStorage::WRITE);
+    fs.open(path.filename().string(), cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
   } catch (const cv::Exception& e) {
     throw Error(std::string("cannot write marker map: ") + e.what(), {.file = path.string()});
   }
@@ -149,13 +156,11 @@ void write_marker_map(const std::filesystem::path& path, const MarkerMap& map) {
        << "}";
   }
   fs << "]";
-  fs.release();
+  write_file_atomically(output.target(), fs.releaseAndGetString());
 }
 
 MarkerMap read_marker_map(const std::filesystem::path& path) {
-  if (!std::filesystem::exists(path)) {
-    throw Error("marker map does not exist", {.file = path.string()});
-  }
+  check_input_file(path, "marker map");
   cv::FileStorage fs;
   try {
     fs.open(path.string(), cv::FileStorage::READ);

@@ -11,6 +11,7 @@
 #include "e57io/error.hpp"
 #include "e57io/reader.hpp"
 #include "markers/panorama.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/progress.hpp"
 
@@ -58,9 +59,11 @@ void write_debug(const ScanMarkerOptions& options, const cv::Mat& image,
   char prefix[16];
   std::snprintf(prefix, sizeof(prefix), "%03d_", index);
   const auto path = options.debug_dir / (prefix + file_safe(name) + ".jpg");
-  if (!cv::imwrite(path.string(), out)) {
-    throw Error("cannot write debug image", {.file = path.string()});
-  }
+  std::vector<std::uint8_t> jpeg;
+  if (!cv::imencode(".jpg", out, jpeg))
+    throw Error("cannot encode debug image", {.file = path.string()});
+  write_file_atomically(
+      path, std::string_view(reinterpret_cast<const char*>(jpeg.data()), jpeg.size()), false);
 }
 
 struct ImageJob {

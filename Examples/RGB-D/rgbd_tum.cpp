@@ -15,10 +15,11 @@
 #include <string>
 #include <vector>
 
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 #include "slam/core/trajectory.hpp"
 #include "slam/dataset/sequence.hpp"
-#include "slam/mapdb/atomic_file.hpp"
 #include "slam/settings/settings.hpp"
 #include "slam/system/system.hpp"
 
@@ -30,6 +31,7 @@ struct Entry {
 };
 
 std::vector<Entry> read_associations(const std::filesystem::path& path) {
+  coloc::check_input_file(path, "associations file");
   std::ifstream in(path);
   if (!in) throw coloc::Error("cannot open associations file", {path.string()});
   std::vector<Entry> entries;
@@ -62,7 +64,7 @@ int run(int argc, char** argv) {
   if (entries.empty()) throw coloc::Error("no frames in the associations file", {argv[4]});
   const double depth_factor = settings.depth ? settings.depth->depth_map_factor : 5000.0;
   // An unwritable map destination is an error before the run, not after it.
-  if (!settings.save_map.empty()) coloc::slam::mapdb::AtomicFile probe(settings.save_map);
+  if (!settings.save_map.empty()) coloc::AtomicFile probe(settings.save_map);
   const auto system = coloc::slam::system::open_system(settings, vocabulary, {}, settings.load_map);
   auto& slam = *system;
   for (const Entry& e : entries) {

@@ -1,7 +1,11 @@
 #include "Examples/coloc/cli_common.hpp"
 
+#include <cmath>
 #include <cstdlib>
 #include <iostream>
+#include <string>
+
+#include "Examples/coloc/verbs.hpp"
 
 // The CLI's CMakeLists defines COLOC_SOURCE_DIR; "." keeps a stray build of a single file working.
 #ifndef COLOC_SOURCE_DIR
@@ -9,6 +13,23 @@
 #endif
 
 namespace coloc::cli {
+
+CLI::Validator non_negative_seconds() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        std::size_t used = 0;
+        double v = 0.0;
+        try {
+          v = std::stod(text, &used);
+        } catch (const std::exception&) {
+          return "'" + text + "' is not a number";
+        }
+        if (used != text.size() || !std::isfinite(v) || v < 0.0)
+          return "'" + text + "' is not a finite number of seconds >= 0";
+        return {};
+      },
+      "SECONDS>=0");
+}
 
 void print_json(const Json& document) {
   std::cout << document.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';

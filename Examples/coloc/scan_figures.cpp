@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 
 namespace coloc::cli {
@@ -61,10 +62,11 @@ cv::Mat scan_figure(const cv::Mat& rendering_rgb, const cv::Mat& image_bgr,
 }
 
 void write_png(const fs::path& path, const cv::Mat& image) {
-  const fs::path tmp = path.string() + ".tmp-" + std::to_string(::getpid()) + ".png";
-  if (!cv::imwrite(tmp.string(), image))
-    throw Error("cannot write the PNG", {.file = tmp.string()});
-  fs::rename(tmp, path);
+  std::vector<std::uint8_t> png;
+  if (!cv::imencode(".png", image, png))
+    throw Error("cannot encode the PNG", {.file = path.string()});
+  write_file_atomically(path,
+                        std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
 }
 
 }  // namespace coloc::cli

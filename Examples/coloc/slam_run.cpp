@@ -60,12 +60,19 @@ RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& 
       ++r.skipped_frames;
       continue;
     }
-    slam.track(dataset::to_camera_order(frame.color, settings.rgb_order), frame.depth,
-               frame.timestamp);
+    try {
+      slam.track(dataset::to_camera_order(frame.color, settings.rgb_order), frame.depth,
+                 frame.timestamp);
+    } catch (const Error& e) {
+      // Images that do not fit the camera (wrong size, depth of another size): same as above.
+      spdlog::warn("frame {} skipped ({}, {}): {}", i, frame.color_path.string(),
+                   frame.depth_path.string(), e.what());
+      ++r.skipped_frames;
+    }
   }
   progress.finish();
   if (r.skipped_frames == sequence.size())
-    throw Error("no frame of the sequence could be read (see the warnings)");
+    throw Error("no frame of the sequence could be read or used (see the warnings)");
   slam.shutdown();
   r.ate_online = ate_of(sequence, slam.trajectory());
   if (run.global_ba) r.global_ba = slam.optimize_map();

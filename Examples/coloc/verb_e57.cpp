@@ -10,12 +10,14 @@
 #include <iostream>
 #include <memory>
 #include <sstream>
+#include <string_view>
 
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "e57io/reader.hpp"
 #include "e57io/synthetic.hpp"
 #include "e57io/writer.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/progress.hpp"
 #include "slam/core/timing.hpp"
 
@@ -151,15 +153,17 @@ std::string safe_name(const std::string& s) {
 }
 
 void write_bytes(const fs::path& path, const std::vector<std::uint8_t>& bytes) {
-  std::ofstream f(path, std::ios::binary);
-  f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-  if (!f) throw CliFailure("cannot write " + path.string());
+  write_file_atomically(
+      path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()), false);
 }
 
 void extract_images(const std::string& file, const std::string& dir) {
-  const e57::Reader r(file);
   fs::create_directories(dir);
-  std::ofstream yaml(fs::path(dir) / "images.yaml");
+  // Claimed first: an unwritable folder fails before any image is read; images.yaml appears,
+  // complete, only after every image it lists.
+  AtomicFile yaml_file(fs::path(dir) / "images.yaml");
+  const e57::Reader r(file);
+  std::ostringstream yaml;
   yaml << "# Images of " << file << ". Pinhole intrinsics in pixels: fx = focal_length / "
        << "pixel_width, fy = focal_length / pixel_height.\n# pose: world_from_camera (E57 "
        << "rigidBodyTransform), translation in metres, quaternion w x y z.\nimages:\n";
@@ -196,12 +200,69 @@ void extract_images(const std::string& file, const std::string& dir) {
            << p.rotation.x << ", " << p.rotation.y << ", " << p.rotation.z << "]\n";
     }
   }
+  write_file_atomically(yaml_file.target(), yaml.str());
   std::cout << "wrote " << r.images().size() << " images and images.yaml to " << dir << "\n";
+}
+
+// Appends the valid points of scan `si` as PLY records; returns how many.
+std::uint64_t append_scan_points(const e57::Reader& r, std::size_t si, bool colour, bool local,
+                                 std::ostream& f, Progress& progress) {
+  std::uint64_t written = 0;
+  const e57::Data3D& s = r.scans()[si];
+  const e57::Pose pose = (s.pose && !local) ? *s.pose : e57::Pose{};
+  const Eigen::Quaterniond q =
+      Eigen::Quaterniond(pose.rotation.w, pose.rotation.x, pose.rotation.y, pose.rotation.z)
+          .normalized();
+  const Eigen::Matrix3d rotation = q.toRotationMatrix();
+  const Eigen::Vector3d t(pose.translation.x, pose.translation.y, pose.translation.z);
+  std::uint32_t mask = field_bit(PointField::kCartesianX) | field_bit(PointField::kCartesianY) |
+                       field_bit(PointField::kCartesianZ);
+  if (s.field_mask & field_bit(PointField::kCartesianInvalidState)) {
+    mask |= field_bit(PointField::kCartesianInvalidState);
+  }
+  if (colour) {
+    mask |= field_bit(PointField::kColorRed) | field_bit(PointField::kColorGreen) |
+            field_bit(PointField::kColorBlue);
+  }
+  const e57::ColorLimits lim = s.color_limits.value_or(e57::ColorLimits{0, 255, 0, 255, 0, 255});
+  auto to_byte = [](double v, double lo, double hi) {
+    const double x = hi > lo ? (v - lo) / (hi - lo) * 255.0 : v;
+    return static_cast<std::uint8_t>(std::clamp(x + 0.5, 0.0, 255.0));
+  };
+  e57::PointStream stream = r.open_points(si, mask);
+  e57::PointBuffer b;
+  std::vector<char> rec;
+  while (const std::size_t n = stream.read(b, 1 << 16)) {
+    rec.clear();
+    for (std::size_t i = 0; i < n; ++i) {
+      if (b.present(PointField::kCartesianInvalidState) && b.cartesian_invalid_state[i] != 0) {
+        continue;
+      }
+      const Eigen::Vector3d p =
+          rotation * Eigen::Vector3d(b.cartesian_x[i], b.cartesian_y[i], b.cartesian_z[i]) + t;
+      const float xyz[3] = {static_cast<float>(p.x()), static_cast<float>(p.y()),
+                            static_cast<float>(p.z())};
+      rec.insert(rec.end(), reinterpret_cast<const char*>(xyz),
+                 reinterpret_cast<const char*>(xyz) + sizeof xyz);
+      if (colour) {
+        rec.push_back(static_cast<char>(to_byte(b.color_red[i], lim.red_min, lim.red_max)));
+        rec.push_back(static_cast<char>(to_byte(b.color_green[i], lim.green_min, lim.green_max)));
+        rec.push_back(static_cast<char>(to_byte(b.color_blue[i], lim.blue_min, lim.blue_max)));
+      }
+      ++written;
+    }
+    f.write(rec.data(), static_cast<std::streamsize>(rec.size()));
+    progress.advance(n);
+  }
+  return written;
 }
 
 // Binary little-endian PLY of every valid cartesian point, in the file (world) frame unless
 // `local`; colour scaled to 0..255 by the scan's colorLimits.
 void to_ply(const std::string& file, const std::string& out, bool local) {
+  // Claimed before the scan is read: an unwritable output fails at once, and a failure later
+  // leaves an existing PLY as it was.
+  AtomicFile output(out);
   const e57::Reader r(file);
   bool colour = !r.scans().empty();
   std::uint64_t total = 0;
@@ -212,7 +273,7 @@ void to_ply(const std::string& file, const std::string& out, bool local) {
     colour = colour && (s.field_mask & field_bit(PointField::kColorRed));
     total += s.point_count;
   }
-  std::ofstream f(out, std::ios::binary);
+  std::ofstream f(output.temp_path(), std::ios::binary);
   const std::string count_marker = "element vertex ";
   f << "ply\nformat binary_little_endian 1.0\ncomment written by coloc e57 to-ply\n"
     << count_marker;
@@ -222,60 +283,16 @@ void to_ply(const std::string& file, const std::string& out, bool local) {
   f << "end_header\n";
   std::uint64_t written = 0;
   Progress progress("to-ply", total);
-  for (std::size_t si = 0; si < r.scans().size(); ++si) {
-    const e57::Data3D& s = r.scans()[si];
-    const e57::Pose pose = (s.pose && !local) ? *s.pose : e57::Pose{};
-    const Eigen::Quaterniond q =
-        Eigen::Quaterniond(pose.rotation.w, pose.rotation.x, pose.rotation.y, pose.rotation.z)
-            .normalized();
-    const Eigen::Matrix3d rotation = q.toRotationMatrix();
-    const Eigen::Vector3d t(pose.translation.x, pose.translation.y, pose.translation.z);
-    std::uint32_t mask = field_bit(PointField::kCartesianX) | field_bit(PointField::kCartesianY) |
-                         field_bit(PointField::kCartesianZ);
-    if (s.field_mask & field_bit(PointField::kCartesianInvalidState)) {
-      mask |= field_bit(PointField::kCartesianInvalidState);
-    }
-    if (colour) {
-      mask |= field_bit(PointField::kColorRed) | field_bit(PointField::kColorGreen) |
-              field_bit(PointField::kColorBlue);
-    }
-    const e57::ColorLimits lim = s.color_limits.value_or(e57::ColorLimits{0, 255, 0, 255, 0, 255});
-    auto to_byte = [](double v, double lo, double hi) {
-      const double x = hi > lo ? (v - lo) / (hi - lo) * 255.0 : v;
-      return static_cast<std::uint8_t>(std::clamp(x + 0.5, 0.0, 255.0));
-    };
-    e57::PointStream stream = r.open_points(si, mask);
-    e57::PointBuffer b;
-    std::vector<char> rec;
-    while (const std::size_t n = stream.read(b, 1 << 16)) {
-      rec.clear();
-      for (std::size_t i = 0; i < n; ++i) {
-        if (b.present(PointField::kCartesianInvalidState) && b.cartesian_invalid_state[i] != 0) {
-          continue;
-        }
-        const Eigen::Vector3d p =
-            rotation * Eigen::Vector3d(b.cartesian_x[i], b.cartesian_y[i], b.cartesian_z[i]) + t;
-        const float xyz[3] = {static_cast<float>(p.x()), static_cast<float>(p.y()),
-                              static_cast<float>(p.z())};
-        rec.insert(rec.end(), reinterpret_cast<const char*>(xyz),
-                   reinterpret_cast<const char*>(xyz) + sizeof xyz);
-        if (colour) {
-          rec.push_back(static_cast<char>(to_byte(b.color_red[i], lim.red_min, lim.red_max)));
-          rec.push_back(static_cast<char>(to_byte(b.color_green[i], lim.green_min, lim.green_max)));
-          rec.push_back(static_cast<char>(to_byte(b.color_blue[i], lim.blue_min, lim.blue_max)));
-        }
-        ++written;
-      }
-      f.write(rec.data(), static_cast<std::streamsize>(rec.size()));
-      progress.advance(n);
-    }
-  }
+  for (std::size_t si = 0; si < r.scans().size(); ++si)
+    written += append_scan_points(r, si, colour, local, f, progress);
   progress.finish();
   char count[21];
   std::snprintf(count, sizeof count, "%020llu", static_cast<unsigned long long>(written));
   f.seekp(count_pos);
   f.write(count, 20);
+  f.close();
   if (!f) throw CliFailure("cannot write " + out);
+  output.commit();
   std::cout << "wrote " << written << " points to " << out << "\n";
 }
 
@@ -293,7 +310,7 @@ double peak_memory_mib() {
 }
 
 fs::path generate_synthetic(std::size_t n) {
-  const fs::path path = fs::temp_directory_path() / "coloc_bench_e57.e57";
+  fs::path path = fs::temp_directory_path() / "coloc_bench_e57.e57";
   Progress progress("writing synthetic E57", n);
   e57::write_synthetic_scan(path, n, 1 << 18, [&](std::size_t done) { progress.set(done); });
   progress.finish();

@@ -5,6 +5,8 @@
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/plot.hpp"
 #include "Examples/coloc/verbs.hpp"
+#include "slam/core/error.hpp"
+#include "slam/core/trajectory.hpp"
 #include "slam/eval/trajectory_error.hpp"
 
 namespace coloc::cli {
@@ -32,6 +34,7 @@ void add_common(CLI::App& cmd, EvalArgs& a, const std::string& default_align) {
       ->check(CLI::IsMember({"se3", "sim3", "none"}))
       ->capture_default_str();
   cmd.add_option("--max-dt", a.max_dt, "Maximal timestamp difference for association (s)")
+      ->check(non_negative_seconds())
       ->capture_default_str();
   cmd.add_flag("--json", a.json, "Machine-readable output on stdout");
   cmd.add_option("--plot", a.plot, "Write a PNG: top view of both trajectories, error over time");
@@ -84,10 +87,17 @@ Series time_series(const std::string& label, const std::vector<double>& t,
   return s;
 }
 
+// A file without a single pose is named as such (association would blame the timestamps).
+Trajectory read_poses(const std::string& path) {
+  Trajectory t = read_tum_trajectory(path);
+  if (t.empty()) throw Error("no poses in the file (an empty trajectory)", {.file = path});
+  return t;
+}
+
 void run_ate(const EvalArgs& a) {
   if (!a.plot.empty()) check_plot_path(a.plot);
-  const Trajectory gt = read_tum_trajectory(a.ground_truth);
-  const Trajectory est = read_tum_trajectory(a.estimate);
+  const Trajectory gt = read_poses(a.ground_truth);
+  const Trajectory est = read_poses(a.estimate);
   const eval::AteResult r =
       eval::compute_ate(gt, est, {.alignment = eval::parse_alignment(a.align), .max_dt = a.max_dt});
   if (a.json) {
@@ -119,8 +129,8 @@ void run_ate(const EvalArgs& a) {
 
 void run_rpe(const EvalArgs& a) {
   if (!a.plot.empty()) check_plot_path(a.plot);
-  const Trajectory gt = read_tum_trajectory(a.ground_truth);
-  const Trajectory est = read_tum_trajectory(a.estimate);
+  const Trajectory gt = read_poses(a.ground_truth);
+  const Trajectory est = read_poses(a.estimate);
   const eval::RpeResult r = eval::compute_rpe(
       gt, est, {.alignment = eval::parse_alignment(a.align), .max_dt = a.max_dt, .delta = a.delta});
   if (a.json) {

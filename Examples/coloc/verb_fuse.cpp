@@ -23,6 +23,7 @@
 #include "fusion/osc_node.hpp"
 #include "fusion/replay.hpp"
 #include "fusion/simulation.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/trajectory.hpp"
 
@@ -72,13 +73,13 @@ fusion::FuserOptions fuser_options(const FuseArgs& a) {
   return o;
 }
 
-Json stats_json(const fusion::FuserStats& s, const fusion::OscStats* osc,
-                std::uint64_t out_of_order, std::uint64_t published) {
+Json stats_json(const fusion::FuserStats& s, const fusion::FusionNodeStats* node) {
   Json j = {{"xr_poses", s.xr_poses},   {"global_poses", s.global_poses},
             {"accepted", s.accepted},   {"initialized", s.initialized},
             {"rejected", s.rejected},   {"lost", s.lost},
             {"unaligned", s.unaligned}, {"out_of_order", s.out_of_order}};
-  if (osc != nullptr) {
+  if (node != nullptr) {
+    const fusion::OscStats* osc = &node->osc;
     j["osc"] = {{"packets", osc->packets},
                 {"messages", osc->messages},
                 {"malformed", osc->malformed},
@@ -86,16 +87,17 @@ Json stats_json(const fusion::FuserStats& s, const fusion::OscStats* osc,
                 {"wrong_types", osc->wrong_types},
                 {"unknown_address", osc->unknown_address},
                 {"invalid_values", osc->invalid_values},
-                {"out_of_order", out_of_order},
-                {"published", published}};
+                {"out_of_order", node->out_of_order},
+                {"implausible", node->implausible},
+                {"resyncs", node->resyncs},
+                {"published", node->published}};
   }
   return j;
 }
 
-void print_stats(const fusion::FuserStats& s, const fusion::OscStats* osc,
-                 std::uint64_t out_of_order, std::uint64_t published, bool json) {
+void print_stats(const fusion::FuserStats& s, const fusion::FusionNodeStats* node, bool json) {
   if (json) {
-    print_json(stats_json(s, osc, out_of_order, published));
+    print_json(stats_json(s, node));
     return;
   }
   std::printf(
@@ -106,10 +108,12 @@ void print_stats(const fusion::FuserStats& s, const fusion::OscStats* osc,
       static_cast<unsigned long long>(s.rejected), static_cast<unsigned long long>(s.lost),
       static_cast<unsigned long long>(s.unaligned),
       static_cast<unsigned long long>(s.out_of_order));
-  if (osc != nullptr) {
+  if (node != nullptr) {
+    const fusion::OscStats* osc = &node->osc;
     std::printf(
         "osc: packets %llu, messages %llu, dropped: malformed %llu, oversized %llu, wrong types "
-        "%llu, unknown address %llu, invalid values %llu, old sequence %llu; published %llu\n",
+        "%llu, unknown address %llu, invalid values %llu, stale %llu, implausible %llu; "
+        "streams re-anchored %llu; published %llu\n",
         static_cast<unsigned long long>(osc->packets),
         static_cast<unsigned long long>(osc->messages),
         static_cast<unsigned long long>(osc->malformed),
@@ -117,7 +121,10 @@ void print_stats(const fusion::FuserStats& s, const fusion::OscStats* osc,
         static_cast<unsigned long long>(osc->wrong_types),
         static_cast<unsigned long long>(osc->unknown_address),
         static_cast<unsigned long long>(osc->invalid_values),
-        static_cast<unsigned long long>(out_of_order), static_cast<unsigned long long>(published));
+        static_cast<unsigned long long>(node->out_of_order),
+        static_cast<unsigned long long>(node->implausible),
+        static_cast<unsigned long long>(node->resyncs),
+        static_cast<unsigned long long>(node->published));
     if (!osc->last_error.empty()) std::printf("last dropped packet: %s\n", osc->last_error.c_str());
   }
 }
@@ -164,11 +171,31 @@ void run_node(const FuseArgs& a) {
     }
     node.stop();
     const fusion::FusionNodeStats s = node.stats();
-    print_stats(s.fuser, &s.osc, s.out_of_order, s.published, a.json);
+    print_stats(s.fuser, &s, a.json);
   }
   sigaction(SIGINT, &previous_int, nullptr);
   sigaction(SIGTERM, &previous_term, nullptr);
   pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+}
+
+// A recorded input without a single pose is an error naming the file (fusing nothing would
+// "succeed" with an empty output).
+Trajectory read_poses(const std::string& path) {
+  Trajectory t = read_tum_trajectory(path);
+  if (t.empty()) throw Error("no poses in the file (an empty trajectory)", {.file = path});
+  return t;
+}
+
+// Prints the statistics, then fails when nothing useful came out: no output at all, or no
+// global pose ever used (every output would be the raw, drifting input).
+void finish_replay(const Trajectory& fused, const fusion::FuserStats& stats, bool json) {
+  print_stats(stats, nullptr, json);
+  if (fused.empty()) throw CliFailure("no fused pose came out; nothing written");
+  if (stats.initialized == 0) {
+    throw CliFailure(
+        "no global pose could be used (none aligned in time with the input: check "
+        "both files are on one clock); the output would be the raw input");
+  }
 }
 
 // IMU mode on recorded files: an IMU log (EuRoC CSV) instead of headset poses; global poses
@@ -176,27 +203,29 @@ void run_node(const FuseArgs& a) {
 void run_imu_files(const FuseArgs& a) {
   fusion::ImuFuserOptions options;
   options.fuser = fuser_options(a);
+  const std::vector<fusion::ImuSample> imu = fusion::read_imu_csv(a.imu_file);
+  if (imu.empty()) throw Error("no IMU samples in the file", {.file = a.imu_file});
   const fusion::ImuReplay r =
-      fusion::replay_imu(fusion::read_imu_csv(a.imu_file),
-                         fusion::delayed(read_tum_trajectory(a.global_file), a.latency), options);
-  if (!a.out_file.empty()) write_tum_trajectory(a.out_file, r.fused);
+      fusion::replay_imu(imu, fusion::delayed(read_poses(a.global_file), a.latency), options);
+  if (!a.out_file.empty() && !r.fused.empty()) write_tum_trajectory(a.out_file, r.fused);
   if (!a.json) {
     std::printf("imu samples %llu (gaps %llu), integrator corrections %llu\n",
                 static_cast<unsigned long long>(r.imu.imu_samples),
                 static_cast<unsigned long long>(r.imu.gaps),
                 static_cast<unsigned long long>(r.imu.corrections));
   }
-  print_stats(r.fuser, nullptr, 0, 0, a.json);
+  finish_replay(r.fused, r.fuser, a.json);
 }
 
 // Replays recorded headset and global trajectories (TUM files, same clock) through the fuser;
 // global poses are delivered `latency` seconds after their stamp.
 void run_files(const FuseArgs& a) {
+  if (!a.out_file.empty()) const AtomicFile probe(a.out_file);
   const fusion::HeadsetReplay r = fusion::replay_headset(
-      read_tum_trajectory(a.xr_file),
-      fusion::delayed(read_tum_trajectory(a.global_file), a.latency), fuser_options(a));
-  if (!a.out_file.empty()) write_tum_trajectory(a.out_file, r.fused);
-  print_stats(r.stats, nullptr, 0, 0, a.json);
+      read_poses(a.xr_file), fusion::delayed(read_poses(a.global_file), a.latency),
+      fuser_options(a));
+  if (!a.out_file.empty() && !r.fused.empty()) write_tum_trajectory(a.out_file, r.fused);
+  finish_replay(r.fused, r.stats, a.json);
 }
 
 void add_filter_options(CLI::App& cmd, FuseArgs& a) {

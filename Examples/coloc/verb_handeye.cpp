@@ -364,6 +364,7 @@ void add_handeye_verb(CLI::App& app, CLI::App& bench) {
     c.add_option("--marker", a.marker, "Marker CSV t,tx,ty,tz,qx,qy,qz,qw (camera_from_marker)")
         ->check(CLI::ExistingFile);
     c.add_option("--max-dt", a.max_dt, "Timestamp tolerance for --device/--marker (s)")
+        ->check(non_negative_seconds())
         ->capture_default_str();
   };
   CLI::App& solve = *cmd.add_subcommand("solve", "Solve X = device_from_marker and M_c2v");
@@ -407,7 +408,7 @@ void add_handeye_verb(CLI::App& app, CLI::App& bench) {
   stab.add_option("B_YAML", st->calib_b)->required()->check(CLI::ExistingFile);
   stab.add_option("--device-a", st->device_a, "vr_a_from_device_a CSV")->required();
   stab.add_option("--device-b", st->device_b, "vr_b_from_device_b CSV")->required();
-  stab.add_option("--max-dt", st->max_dt)->capture_default_str();
+  stab.add_option("--max-dt", st->max_dt)->check(non_negative_seconds())->capture_default_str();
   stab.add_flag("--json", st->json);
   stab.callback([st] { run_stability(*st); });
 

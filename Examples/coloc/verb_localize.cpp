@@ -23,14 +23,15 @@
 #include "Examples/coloc/verbs.hpp"
 #include "Examples/coloc/view_session.hpp"
 #include "fusion/osc_node.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 #include "slam/core/progress.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/eval/trajectory_error.hpp"
 #include "slam/localize/frame_pacer.hpp"
 #include "slam/localize/localizer.hpp"
-#include "slam/mapdb/atomic_file.hpp"
 
 namespace coloc::cli {
 namespace {
@@ -64,6 +65,7 @@ struct LocalizeArgs {
 // cam_from_head (4x4, OpenCV YAML key `cam_from_head`, or `cam_from_headset` as the twin's
 // headset/calibration.yaml has it): the camera's mounting on the headset.
 SE3 read_cam_from_head(const fs::path& path) {
+  check_input_file(path, "cam-from-head file");
   cv::FileStorage file;
   try {
     file.open(path.string(), cv::FileStorage::READ);
@@ -188,9 +190,7 @@ std::optional<eval::AteResult> ate(const dataset::Sequence& sequence, const Traj
 }
 
 void write_trajectory(const fs::path& path, const Trajectory& trajectory) {
-  slam::mapdb::AtomicFile file(path);
-  write_tum_trajectory(file.temp_path(), trajectory);
-  file.commit();
+  write_tum_trajectory(path, trajectory);  // atomic (core AtomicOutput)
 }
 
 fusion::PoseServerOptions server_options(const LocalizeArgs& args) {
@@ -275,7 +275,7 @@ void print_summary(const LocalizeArgs& args, const LocalizeInputs& in,
 
 void run_localize(const LocalizeArgs& args) {
   // Unwritable outputs are errors before the run, not after it.
-  std::optional<slam::mapdb::AtomicFile> probe;
+  std::optional<AtomicFile> probe;
   if (!args.trajectory.empty()) probe.emplace(args.trajectory);
   probe.reset();
   LocalizeInputs in = load_inputs(args);
@@ -311,7 +311,15 @@ void run_localize(const LocalizeArgs& args) {
       args, sequence, end, totals,
       [&](const dataset::Frame& frame, double time, bool first_replay) {
         const cv::Mat image = dataset::to_camera_order(frame.color, in.settings.rgb_order);
-        const LocalizationResult r = localizer.localize(image, frame.depth, time);
+        LocalizationResult r;
+        try {
+          r = localizer.localize(image, frame.depth, time);
+        } catch (const Error& e) {
+          // A frame that does not fit the camera is skipped and named, as unreadable ones are.
+          spdlog::warn("frame {} skipped ({}): {}", frame.index, frame.color_path.string(),
+                       e.what());
+          return;
+        }
         if (view)
           view->offer(image, in.settings.rgb_order, frame_index, time,
                       static_cast<slam::system::ObservedState>(r.state), r.world_from_cam,
@@ -331,12 +339,19 @@ void run_localize(const LocalizeArgs& args) {
       });
   if (args.linger > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(args.linger));
   server->stop();
-  if (!args.trajectory.empty()) write_trajectory(args.trajectory, totals.trajectory);
+  if (!args.trajectory.empty() && !totals.trajectory.empty())
+    write_trajectory(args.trajectory, totals.trajectory);
 
   print_summary(args, in, localizer.stats(), totals, *server, published_name);
   if (view) {
     view->finish();
     linger(*view_server, view->stats(), args.view.linger_s);
+  }
+  if (localizer.stats().localized == 0) {
+    // Nothing useful came out: a non-zero exit, not an empty trajectory and status 0.
+    throw CliFailure(
+        "no frame was localized in the map (a recording of another place, or the "
+        "wrong settings?); no trajectory written");
   }
 }
 

@@ -20,13 +20,13 @@
 #include "Examples/coloc/verbs.hpp"
 #include "Examples/coloc/view_session.hpp"
 #include "slam/bow/vocabulary.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/progress.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/dataset/slice.hpp"
 #include "slam/eval/trajectory_error.hpp"
-#include "slam/mapdb/atomic_file.hpp"
 #include "slam/mapdb/mapdb.hpp"
 #include "slam/settings/settings.hpp"
 #include "slam/system/system.hpp"
@@ -86,7 +86,9 @@ void run_map(const MapArgs& given) {
   if (args.load.empty()) args.load = in.slam.settings.load_map;
   if (args.save.empty()) args.save = in.slam.settings.save_map;
   // An unwritable map destination is an error before the run, not after it.
-  if (!args.save.empty()) slam::mapdb::AtomicFile probe(args.save);
+  if (!args.save.empty()) AtomicFile probe(args.save);
+  { const AtomicFile probe(args.trajectory); }
+  if (!args.keyframes.empty()) const AtomicFile probe(args.keyframes);
   // A viewer that cannot start (port in use) is a warning: the run goes on without it.
   std::unique_ptr<slam::view::ViewServer> server;
   std::unique_ptr<LiveSystemView> live;
@@ -106,9 +108,17 @@ void run_map(const MapArgs& given) {
                                  if (!args.save.empty())
                                    save_finished_map(slam, args.save, args.json);
                                });
+  const auto& s = r.summary;
+  if (r.trajectory.empty()) {
+    // A run in which no frame tracked produced nothing to use: say so and fail, rather than
+    // leave an empty trajectory and exit 0.
+    std::cout << s.describe() << "\n";
+    throw CliFailure("no frame of the " + std::to_string(s.frames) +
+                     " was tracked: the trajectory is empty and was not written (check the "
+                     "settings' camera and depth scale against the sequence)");
+  }
   write_tum_trajectory(args.trajectory, r.trajectory);
   if (!args.keyframes.empty()) write_tum_trajectory(args.keyframes, r.keyframes);
-  const auto& s = r.summary;
   if (args.json) {
     print_json({{"frames", s.frames},
                 {"tracked", s.tracked},

@@ -13,10 +13,10 @@
 #include "Examples/coloc/row_progress.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
 #include "Examples/coloc/verbs.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/progress.hpp"
 #include "slam/core/trajectory.hpp"
-#include "slam/mapdb/atomic_file.hpp"
 #include "slam/mapdb/mapdb.hpp"
 
 namespace coloc::cli {
@@ -103,16 +103,15 @@ void run_verify(const fs::path& file, const fs::path& vocabulary_path, bool json
 }
 
 void export_trajectory(const fs::path& file, const fs::path& out) {
-  mapdb::AtomicFile output(out);  // an unwritable output fails before the map is read
+  { const AtomicFile probe(out); }  // an unwritable output fails before the map is read
   const Trajectory t = mapdb::read_keyframe_trajectory(file);
-  write_tum_trajectory(output.temp_path(), t);
-  output.commit();
+  write_tum_trajectory(out, t);  // atomic
   std::cout << "wrote " << t.size() << " keyframe poses (world_from_cam, TUM format) to "
             << out.string() << "\n";
 }
 
 void export_ply(const fs::path& file, const fs::path& out, std::uint32_t min_observations) {
-  mapdb::AtomicFile output(out);
+  AtomicFile output(out);
   const mapdb::MapInfo info = mapdb::read_map_info(file);
   std::ofstream f(output.temp_path(), std::ios::binary);
   f << "ply\nformat binary_little_endian 1.0\ncomment coloc map points of "

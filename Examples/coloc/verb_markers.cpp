@@ -24,6 +24,7 @@
 #include "markers/scan_markers.hpp"
 #include "markers/synthetic.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/settings/settings.hpp"
 
@@ -99,6 +100,7 @@ void detect(const DetectArgs& a) {
   Json images = Json::array();
   int total = 0;
   for (const std::string& file : a.images) {
+    check_input_file(file, "image");
     const cv::Mat image = cv::imread(file, cv::IMREAD_GRAYSCALE);
     if (image.empty()) throw Error("cannot read image", {.file = file});
     const auto observations = detector.detect(image);
@@ -130,6 +132,7 @@ void detect(const DetectArgs& a) {
 // Ground truth corners as the digital twin writes them (groundtruth/markers.txt):
 // "id size x0 y0 z0 ... x3 y3 z3" per line, '#' comments.
 std::map<int, std::array<Eigen::Vector3d, 4>> read_truth(const std::string& path) {
+  check_input_file(path, "ground truth");
   std::ifstream in(path);
   if (!in) throw Error("cannot open ground truth", {.file = path});
   std::map<int, std::array<Eigen::Vector3d, 4>> truth;

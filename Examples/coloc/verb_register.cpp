@@ -21,9 +21,9 @@
 #include "registration/align/register.hpp"
 #include "registration/align/scan_cloud.hpp"
 #include "registration/render/renderer.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
-#include "slam/mapdb/atomic_file.hpp"
 #include "slam/mapdb/mapdb.hpp"
 
 namespace coloc::cli {
@@ -166,14 +166,7 @@ markers::MarkerMap select_markers(markers::MarkerMap map, const std::vector<int>
 // registration.json in the report directory (temporary file renamed over it).
 void write_report_json(const fs::path& dir, const std::string& summary) {
   fs::create_directories(dir);
-  const fs::path file = dir / "registration.json";
-  const fs::path tmp = dir / ("registration.json.tmp-" + std::to_string(::getpid()));
-  {
-    std::ofstream f(tmp);
-    f << Json::parse(summary).dump(2) << "\n";
-    if (!f) throw Error("cannot write the report", {.file = tmp.string()});
-  }
-  fs::rename(tmp, file);
+  write_file_atomically(dir / "registration.json", Json::parse(summary).dump(2) + "\n");
 }
 
 render::PointCloud read_scan_points(const RegisterArgs& a, const align::ScanCloudOptions& o,
@@ -211,7 +204,7 @@ void register_verb(const RegisterArgs& a) {
   cloud_options.check();  // before any work
   // An unwritable output is an error before any work (the map is written later under a
   // temporary name and renamed).
-  { const slam::mapdb::AtomicFile probe(a.out); }
+  { const AtomicFile probe(a.out); }
   const markers::MarkerMap scan =
       select_markers(markers::read_marker_map(a.markers), a.only_markers, a.ignore_markers);
   align::ScanCloudStats cloud_stats;

@@ -20,7 +20,7 @@
 #include "fusion/session/simulate.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/trajectory.hpp"
-#include "slam/mapdb/atomic_file.hpp"
+#include "slam/core/atomic_file.hpp"
 
 namespace coloc::cli {
 namespace {
@@ -142,11 +142,11 @@ void run_session(const SessionArgs& a) {
   options.port = a.listen;
   options.publish = a.publish;
   options.watch_calibrations = !a.no_watch;
-  std::unique_ptr<slam::mapdb::AtomicFile> log_file;
+  std::unique_ptr<AtomicFile> log_file;
   std::ofstream log;
   fs::LogSink sink;
   if (!a.log.empty()) {
-    log_file = std::make_unique<slam::mapdb::AtomicFile>(a.log);
+    log_file = std::make_unique<AtomicFile>(a.log);
     log.open(log_file->temp_path());
     fs::write_log_header(log);
     sink = [&log](const fs::LogRecord& r) { fs::write_log_record(log, r); };

@@ -7,6 +7,10 @@
 
 namespace coloc::cli {
 
+// A validator for durations and tolerances: a finite number >= 0 (CLI11's NonNegativeNumber
+// lets "nan" through). A bad value is a usage error (exit 2) naming the option.
+CLI::Validator non_negative_seconds();
+
 // `bench` is the `coloc bench` subcommand: a verb adds its speed measurements under it.
 void add_demo_verb(CLI::App& app);
 void add_eval_verb(CLI::App& app);

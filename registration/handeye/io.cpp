@@ -8,7 +8,9 @@
 #include <iomanip>
 #include <string>
 
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 #include "slam/core/trajectory.hpp"
 
 namespace coloc::registration::handeye {
@@ -69,6 +71,7 @@ struct Reader {
 // Calls on_fields(fields) for every data line with the expected field count.
 template <typename Fn>
 void read_lines(const std::filesystem::path& path, std::size_t count, Fn on_fields) {
+  check_input_file(path, "pose file");
   std::ifstream in(path);
   if (!in) throw Error("cannot open file", {.file = path.string()});
   Reader reader{path, 0};
@@ -92,18 +95,11 @@ void read_lines(const std::filesystem::path& path, std::size_t count, Fn on_fiel
   }
 }
 
-void write_pose(std::ofstream& out, const SE3& pose) {
+void write_pose(std::ostream& out, const SE3& pose) {
   const Eigen::Quaterniond& q = pose.quaternion();
   const Eigen::Vector3d& t = pose.translation();
   out << ',' << t.x() << ',' << t.y() << ',' << t.z() << ',' << q.x() << ',' << q.y() << ','
       << q.z() << ',' << q.w();
-}
-
-std::ofstream open_for_writing(const std::filesystem::path& path) {
-  std::ofstream out(path);
-  if (!out) throw Error("cannot write file", {.file = path.string()});
-  out << std::setprecision(12);
-  return out;
 }
 
 }  // namespace
@@ -117,13 +113,15 @@ std::vector<TimedPose> read_pose_csv(const std::filesystem::path& path) {
 }
 
 void write_pose_csv(const std::filesystem::path& path, const std::vector<TimedPose>& poses) {
-  std::ofstream out = open_for_writing(path);
+  AtomicOutput out(path);
+  out << std::setprecision(12);
   out << "t,tx,ty,tz,qx,qy,qz,qw\n";
   for (const TimedPose& p : poses) {
     out << p.t;
     write_pose(out, p.pose);
     out << '\n';
   }
+  out.commit();
 }
 
 std::vector<TimedRegistration> read_pairs_file(const std::filesystem::path& path) {
@@ -137,7 +135,8 @@ std::vector<TimedRegistration> read_pairs_file(const std::filesystem::path& path
 
 void write_pairs_file(const std::filesystem::path& path,
                       const std::vector<TimedRegistration>& registrations) {
-  std::ofstream out = open_for_writing(path);
+  AtomicOutput out(path);
+  out << std::setprecision(12);
   out << "# t, vr_from_device tx ty tz qx qy qz qw, camera_from_marker tx ty tz qx qy qz qw\n";
   for (const TimedRegistration& r : registrations) {
     out << r.t;
@@ -145,6 +144,7 @@ void write_pairs_file(const std::filesystem::path& path,
     write_pose(out, r.registration.camera_from_marker);
     out << '\n';
   }
+  out.commit();
 }
 
 std::vector<TimedRegistration> match_by_time(const std::vector<TimedPose>& vr_from_device,
@@ -169,7 +169,8 @@ std::vector<TimedRegistration> match_by_time(const std::vector<TimedPose>& vr_fr
 }
 
 void write_calibration(const std::filesystem::path& path, const CalibrationFile& calibration) {
-  std::ofstream out = open_for_writing(path);
+  AtomicOutput out(path);
+  out << std::setprecision(12);
   out << "# coloc handeye calibration: 4x4 row-major, metres (frames: see README, hand-eye)\n";
   auto matrix = [&](const char* key, const SE3& pose) {
     const Eigen::Matrix4d m = pose.matrix();
@@ -181,9 +182,11 @@ void write_calibration(const std::filesystem::path& path, const CalibrationFile&
   matrix("device_from_marker", calibration.device_from_marker);
   matrix("vr_from_camera", calibration.vr_from_camera);
   out << "sigma: " << calibration.sigma << "\n";
+  out.commit();
 }
 
 CalibrationFile read_calibration(const std::filesystem::path& path) {
+  check_input_file(path, "pose file");
   std::ifstream in(path);
   if (!in) throw Error("cannot open file", {.file = path.string()});
   Reader reader{path, 0};

@@ -11,6 +11,7 @@
 #include "registration/twin/image_writer.hpp"
 #include "registration/twin/scene.hpp"
 #include "registration/twin/twin_io.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/progress.hpp"
 #include "slam/core/timing.hpp"
@@ -27,11 +28,8 @@ std::string stamp(double t) {
   return buf;
 }
 
-std::ofstream open_list(const fs::path& path, const std::string& title) {
-  std::ofstream out(path);
-  if (!out) throw Error("cannot write", {.file = path.string()});
+void write_list_header(std::ostream& out, const std::string& title) {
   out << "# " << title << "\n# file: 'coloc digital twin'\n# timestamp filename\n";
-  return out;
 }
 
 // Colour (+ motion blur) and depth of one frame.
@@ -66,9 +64,11 @@ SequenceResult write_sequence(render::Renderer& renderer, const WalkTrajectory& 
   double end = walk.end_time();
   if (o.max_duration > 0.0) end = std::min(end, walk.start_time() + o.max_duration);
   const Trajectory frames = sample_trajectory(walk, o.fps, walk.start_time(), end);
-  std::ofstream rgb = open_list(dir / "rgb.txt", "color images");
-  std::ofstream depth = open_list(dir / "depth.txt", "depth maps");
-  std::ofstream assoc(dir / "associations.txt");
+  AtomicOutput rgb(dir / "rgb.txt");
+  AtomicOutput depth(dir / "depth.txt");
+  AtomicOutput assoc(dir / "associations.txt");
+  write_list_header(rgb, "color images");
+  write_list_header(depth, "depth maps");
   SequenceResult result;
   AsyncPngWriter png;  // encodes on a second thread while the next frame renders
   Progress progress("twin: RGB-D frames", frames.size(), o.quiet);
@@ -93,7 +93,9 @@ SequenceResult write_sequence(render::Renderer& renderer, const WalkTrajectory& 
   progress.finish();
   result.groundtruth = frames;
   write_tum_trajectory(dir / "groundtruth.txt", frames);
-  if (!rgb || !depth || !assoc) throw Error("write failed", {.file = dir.string()});
+  rgb.commit();
+  depth.commit();
+  assoc.commit();
   return result;
 }
 
@@ -142,8 +144,7 @@ std::vector<ScanStation> write_scan(render::Renderer& renderer, const TwinScene&
 }
 
 void write_summary(const fs::path& path, const GenerateOptions& o, const GenerateSummary& s) {
-  std::ofstream out(path);
-  if (!out) throw Error("cannot write", {.file = path.string()});
+  AtomicOutput out(path);
   out << "%YAML:1.0\n# coloc digital twin (registration/twin/generator.hpp describes the files)\n"
       << "preset: " << preset_name(o.preset) << "\nseed: " << o.seed
       << "\nwalk_variant: " << o.walk_variant << "\nframes: " << s.frames << "\nfps: " << o.fps
@@ -153,6 +154,7 @@ void write_summary(const fs::path& path, const GenerateOptions& o, const Generat
       << "\nmarker_size: " << o.marker_size << "\ntriangles: " << s.triangles
       << "\nmoved_furniture: " << s.moved_furniture << "\npath_length: " << s.path_length
       << "\nscan_face_size: " << o.scan.face_size << "\n";
+  out.commit();
 }
 
 }  // namespace
@@ -289,10 +291,11 @@ GenerateSummary generate_twin(const GenerateOptions& o, const fs::path& out) {
   fs::create_directories(gt);
   io::write_markers(gt / "markers.txt", gt / "marker_poses.txt", scene.markers, o.dictionary);
   {
-    std::ofstream offset(gt / "scan_from_sequence_start.txt");
+    AtomicOutput offset(gt / "scan_from_sequence_start.txt");
     offset << "# world (scan) frame from the camera at the first frame: t tx ty tz qx qy qz qw\n"
            << io::tum_line(sr.groundtruth.front().timestamp, sr.groundtruth.front().world_from_cam)
            << '\n';
+    offset.commit();
   }
   if (o.write_scan) {
     sw.restart();

@@ -2,8 +2,12 @@
 
 #include <spdlog/spdlog.h>
 
+#include <cstdint>
 #include <opencv2/imgcodecs.hpp>
+#include <string_view>
+#include <vector>
 
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 
 namespace coloc::registration::twin {
@@ -53,10 +57,21 @@ void AsyncPngWriter::run() {
       queue_.pop_front();
       not_full_.notify_one();
     }
+    // Encoded in memory and written under a temporary name (no fsync: thousands of frames),
+    // so a failed run never leaves a truncated PNG under a final name.
     bool ok = false;
     try {
-      ok = cv::imwrite(job.first.string(), job.second, {cv::IMWRITE_PNG_COMPRESSION, 1});
+      std::vector<std::uint8_t> png;
+      ok = cv::imencode(job.first.extension().string(), job.second, png,
+                        {cv::IMWRITE_PNG_COMPRESSION, 1});
+      if (ok) {
+        write_file_atomically(
+            job.first, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()),
+            false);
+      }
     } catch (const cv::Exception&) {
+      ok = false;
+    } catch (const Error&) {
       ok = false;
     }
     if (!ok) {

@@ -5,6 +5,7 @@
 
 #include "e57io/writer.hpp"
 #include "registration/twin/scan.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 
 namespace coloc::registration::twin {
@@ -29,6 +30,7 @@ std::string guid(std::uint64_t seed, std::uint64_t kind, std::uint64_t index) {
 }  // namespace
 
 struct ScanFileWriter::Impl {
+  std::unique_ptr<AtomicFile> e57_file;  // the E57 is written under its temporary name
   std::unique_ptr<e57::Writer> e57;
   std::filesystem::path ply_path;
   std::filesystem::path ply_tmp;
@@ -47,7 +49,8 @@ ScanFileWriter::ScanFileWriter(const std::filesystem::path& e57_path,
   wo.guid = guid(seed, 0xf11e, 0);
   wo.creation_time = e57::DateTime{1.4e9, false};
   wo.library_version = "coloc twin generator";
-  impl_->e57 = std::make_unique<e57::Writer>(e57_path, wo);
+  impl_->e57_file = std::make_unique<AtomicFile>(e57_path);
+  impl_->e57 = std::make_unique<e57::Writer>(impl_->e57_file->temp_path(), wo);
   impl_->ply_path = ply_path;
   impl_->ply_tmp = ply_path;
   impl_->ply_tmp += ".body";
@@ -136,14 +139,12 @@ void ScanFileWriter::add_e57(const ScanStation& st) {
 
 std::size_t ScanFileWriter::close() {
   impl_->e57->close();
+  impl_->e57_file->commit();
   impl_->ply_body.close();
   // Header + body into a temporary file renamed when complete: a failure never leaves a
   // half-written PLY under the final name.
-  std::filesystem::path ply_partial = impl_->ply_path;
-  ply_partial += ".partial";
   {
-    std::ofstream out(ply_partial, std::ios::binary);
-    if (!out) throw Error("cannot write", {.file = ply_partial.string()});
+    AtomicOutput out(impl_->ply_path, true, std::ios::binary | std::ios::trunc);
     out << "ply\nformat binary_little_endian 1.0\ncomment coloc digital twin scan, world frame, "
            "metres\nelement vertex "
         << impl_->points
@@ -151,10 +152,8 @@ std::size_t ScanFileWriter::close() {
            "property uchar green\nproperty uchar blue\nend_header\n";
     std::ifstream body(impl_->ply_tmp, std::ios::binary);
     out << body.rdbuf();
-    out.flush();
-    if (!out) throw Error("cannot write", {.file = ply_partial.string()});
+    out.commit();
   }
-  std::filesystem::rename(ply_partial, impl_->ply_path);
   std::filesystem::remove(impl_->ply_tmp);
   impl_->closed = true;
   return impl_->points;

@@ -3,17 +3,11 @@
 #include <cstdio>
 #include <fstream>
 
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 
 namespace coloc::registration::twin::io {
 namespace {
-
-std::ofstream open(const std::filesystem::path& path) {
-  std::ofstream out(path);
-  if (!out) throw Error("cannot write", {.file = path.string()});
-  out.precision(10);
-  return out;
-}
 
 std::string fmt(const char* f, double v) {
   char buf[64];
@@ -21,7 +15,7 @@ std::string fmt(const char* f, double v) {
   return buf;
 }
 
-void matrix_yaml(std::ofstream& out, const std::string& key, const Eigen::Matrix4d& m) {
+void matrix_yaml(std::ostream& out, const std::string& key, const Eigen::Matrix4d& m) {
   out << key << ": !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: f\n   data: [";
   for (int r = 0; r < 4; ++r) {
     for (int c = 0; c < 4; ++c) {
@@ -43,7 +37,8 @@ std::string tum_line(double t, const SE3& pose) {
 
 void write_camera_settings(const std::filesystem::path& path, const PinholeCamera& c, double fps,
                            const DepthNoiseOptions& depth, const ImuOptions& imu) {
-  std::ofstream out = open(path);
+  AtomicOutput out(path);
+  out.precision(10);
   out << "%YAML:1.0\n\n# coloc digital twin: RGB-D camera (D455-like), ORB-SLAM3 v1.0 format.\n"
       << "File.version: \"1.0\"\n\nCamera.type: \"PinHole\"\n\n"
       << "Camera1.fx: " << fmt("%.6f", c.fx) << "\nCamera1.fy: " << fmt("%.6f", c.fy)
@@ -69,10 +64,12 @@ void write_camera_settings(const std::filesystem::path& path, const PinholeCamer
       << "ORBextractor.nFeatures: 1000\nORBextractor.scaleFactor: 1.2\nORBextractor.nLevels: 8\n"
       << "ORBextractor.iniThFAST: 20\nORBextractor.minThFAST: 7\n";
   if (!out) throw Error("write failed", {.file = path.string()});
+  out.commit();
 }
 
 void write_imu(const std::filesystem::path& path, const std::vector<ImuSample>& samples) {
-  std::ofstream out = open(path);
+  AtomicOutput out(path);
+  out.precision(10);
   out << "# timestamp[s] gx gy gz [rad/s] ax ay az [m/s^2], IMU frame (see camera.yaml "
          "IMU.T_b_c1)\n";
   char buf[256];
@@ -82,10 +79,12 @@ void write_imu(const std::filesystem::path& path, const std::vector<ImuSample>& 
     out << buf;
   }
   if (!out) throw Error("write failed", {.file = path.string()});
+  out.commit();
 }
 
 void write_imu_truth(const std::filesystem::path& path, const std::vector<ImuTruth>& truth) {
-  std::ofstream out = open(path);
+  AtomicOutput out(path);
+  out.precision(10);
   out << "# timestamp[s] gx gy gz ax ay az (noise- and bias-free) bgx bgy bgz bax bay baz\n";
   char buf[512];
   for (const ImuTruth& t : truth) {
@@ -98,11 +97,13 @@ void write_imu_truth(const std::filesystem::path& path, const std::vector<ImuTru
     out << buf;
   }
   if (!out) throw Error("write failed", {.file = path.string()});
+  out.commit();
 }
 
 void write_headset_calibration(const std::filesystem::path& path, const HeadsetOptions& o,
                                const SE3& world_from_xr_start) {
-  std::ofstream out = open(path);
+  AtomicOutput out(path);
+  out.precision(10);
   out << "%YAML:1.0\n# coloc digital twin: headset rigidly mounted with the RGB-D camera.\n"
       << "# cam_from_headset maps headset-frame points into the camera frame (the true X).\n";
   matrix_yaml(out, "cam_from_headset", o.cam_from_headset.matrix());
@@ -113,12 +114,16 @@ void write_headset_calibration(const std::filesystem::path& path, const HeadsetO
       << "\ntranslation_drift: " << fmt("%.6f", o.translation_drift)
       << "\nyaw_drift: " << fmt("%.6f", o.yaw_drift) << "\njitter: " << fmt("%.6f", o.jitter)
       << "\n";
+  out.commit();
 }
 
 void write_markers(const std::filesystem::path& corners_path,
                    const std::filesystem::path& poses_path, const std::vector<MarkerTruth>& markers,
                    int dictionary) {
-  std::ofstream out = open(corners_path);
+  AtomicOutput out(corners_path);
+  AtomicOutput poses(poses_path);
+  out.precision(10);
+  poses.precision(10);
   out << "# dictionary " << dictionary
       << " (OpenCV predefined id). id size_m then 4 corners x y z in the scan (world) frame,\n"
          "# OpenCV order: top-left, top-right, bottom-right, bottom-left seen from the front\n";
@@ -131,21 +136,24 @@ void write_markers(const std::filesystem::path& corners_path,
     }
     out << '\n';
   }
-  std::ofstream poses = open(poses_path);
   poses << "# id tx ty tz qx qy qz qw: world_from_marker (marker x right, y up, z out of the "
            "wall)\n";
   for (const MarkerTruth& m : markers) {
     const std::string line = tum_line(0.0, m.world_from_marker);
     poses << m.id << line.substr(line.find(' ')) << '\n';
   }
+  out.commit();
+  poses.commit();
 }
 
 void write_stations(const std::filesystem::path& stations_path,
                     const std::filesystem::path& faces_path,
                     const std::vector<ScanStation>& stations) {
-  std::ofstream out = open(stations_path);
+  AtomicOutput out(stations_path);
+  AtomicOutput faces(faces_path);
+  out.precision(10);
+  faces.precision(10);
   out << "# station tx ty tz qx qy qz qw: world_from_station (z up)\n";
-  std::ofstream faces = open(faces_path);
   faces << "# station face width height fx fy cx cy tx ty tz qx qy qz qw: world_from_face "
            "(camera x right, y down, z forward; pixel centres at integers)\n";
   for (const ScanStation& s : stations) {
@@ -159,6 +167,8 @@ void write_stations(const std::filesystem::path& stations_path,
             << line.substr(line.find(' ')) << '\n';
     }
   }
+  out.commit();
+  faces.commit();
 }
 
 }  // namespace coloc::registration::twin::io

@@ -9,7 +9,9 @@
 #include <string>
 
 #include "slam/bow/vocabulary.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc::slam::bow {
 namespace {
@@ -127,14 +129,12 @@ std::vector<std::uint8_t> Vocabulary::serialize() const {
 
 void Vocabulary::save(const std::filesystem::path& path) const {
   const std::vector<std::uint8_t> bytes = serialize();
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw Error("cannot open for writing", {.file = path.string()});
-  out.write(reinterpret_cast<const char*>(bytes.data()),
-            static_cast<std::streamsize>(bytes.size()));
-  if (!out) throw Error("write failed", {.file = path.string()});
+  write_file_atomically(
+      path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 Vocabulary Vocabulary::load(const std::filesystem::path& path) {
+  check_input_file(path, "vocabulary file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error("cannot open vocabulary file", {.file = path.string()});
   const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)),

@@ -5,15 +5,20 @@
 #include <fstream>
 #include <iomanip>
 #include <sstream>
+#include <vector>
 
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc {
 
 Trajectory read_tum_trajectory(const std::filesystem::path& path) {
+  check_input_file(path, "trajectory file");
   std::ifstream in(path);
   if (!in) throw Error("cannot open trajectory file", {.file = path.string()});
   Trajectory trajectory;
+  std::vector<std::int64_t> lines;  // of each pose, for errors after sorting
   std::string line;
   std::int64_t line_no = 0;
   while (std::getline(in, line)) {
@@ -30,22 +35,46 @@ Trajectory read_tum_trajectory(const std::filesystem::path& path) {
       throw Error("expected 8 numbers 't tx ty tz qx qy qz qw', read " + std::to_string(n),
                   {.file = path.string(), .line = line_no});
     }
+    if (!std::all_of(v, v + 8, [](double x) { return std::isfinite(x); })) {
+      throw Error("non-finite number", {.file = path.string(), .line = line_no});
+    }
     const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
     if (!std::isfinite(q.norm()) || std::abs(q.norm() - 1.0) > 1e-2) {
       throw Error("quaternion is not of unit norm (|q| = " + std::to_string(q.norm()) + ")",
                   {.file = path.string(), .line = line_no});
     }
     trajectory.push_back({v[0], SE3(q, Eigen::Vector3d(v[1], v[2], v[3]))});
+    lines.push_back(line_no);
   }
-  std::stable_sort(
-      trajectory.begin(), trajectory.end(),
-      [](const StampedPose& a, const StampedPose& b) { return a.timestamp < b.timestamp; });
-  return trajectory;
+  std::vector<std::size_t> order(trajectory.size());
+  for (std::size_t i = 0; i < order.size(); ++i)
+    order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return trajectory[a].timestamp < trajectory[b].timestamp;
+  });
+  Trajectory sorted;
+  sorted.reserve(order.size());
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const StampedPose& p = trajectory[order[k]];
+    if (!sorted.empty() && sorted.back().timestamp == p.timestamp) {
+      // One instant, two poses: which one is meant is unknowable (a concatenated or duplicated
+      // file). An exact repeat is harmless and dropped.
+      const SE3& q = sorted.back().world_from_cam;
+      if (q.translation() != p.world_from_cam.translation() ||
+          q.quaternion().coeffs() != p.world_from_cam.quaternion().coeffs()) {
+        throw Error("two different poses for timestamp " + std::to_string(p.timestamp) +
+                        " (also on line " + std::to_string(lines[order[k - 1]]) + ")",
+                    {.file = path.string(), .line = lines[order[k]]});
+      }
+      continue;
+    }
+    sorted.push_back(p);
+  }
+  return sorted;
 }
 
 void write_tum_trajectory(const std::filesystem::path& path, const Trajectory& trajectory) {
-  std::ofstream out(path);
-  if (!out) throw Error("cannot write trajectory file", {.file = path.string()});
+  AtomicOutput out(path);
   out << "# timestamp tx ty tz qx qy qz qw (world_from_cam)\n";
   for (const auto& p : trajectory) {
     const Eigen::Vector3d& t = p.world_from_cam.translation();
@@ -54,7 +83,7 @@ void write_tum_trajectory(const std::filesystem::path& path, const Trajectory& t
         << ' ' << t.y() << ' ' << t.z() << ' ' << q.x() << ' ' << q.y() << ' ' << q.z() << ' '
         << q.w() << '\n';
   }
-  if (!out) throw Error("write failed", {.file = path.string()});
+  out.commit();
 }
 
 std::vector<std::pair<std::size_t, std::size_t>> associate_by_time(const Trajectory& a,

@@ -12,6 +12,7 @@
 #include <opencv2/core.hpp>
 
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/dataset/text_table.hpp"
 
@@ -24,6 +25,7 @@ struct CameraInfo {
 };
 
 CameraInfo read_sensor_yaml(const std::filesystem::path& file) {
+  check_input_file(file, "sensor YAML");
   cv::FileStorage fs;
   try {
     fs.open(file.string(), cv::FileStorage::READ);

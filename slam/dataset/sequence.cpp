@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc::dataset {
 
@@ -40,6 +41,7 @@ std::unique_ptr<Sequence> open_sequence(const std::filesystem::path& dir,
 }
 
 cv::Mat read_image(const std::filesystem::path& path, bool grey) {
+  check_input_file(path, "image");
   cv::Mat img = cv::imread(path.string(), grey ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR);
   if (img.empty()) throw Error("cannot read image", {.file = path.string()});
   return img;
@@ -54,6 +56,7 @@ cv::Mat to_camera_order(const cv::Mat& bgr, bool rgb_order) {
 
 cv::Mat read_depth(const std::filesystem::path& path, double units_per_metre,
                    unsigned invalid_raw) {
+  check_input_file(path, "depth image");
   cv::Mat raw = cv::imread(path.string(), cv::IMREAD_ANYDEPTH);
   if (raw.empty()) throw Error("cannot read depth image", {.file = path.string()});
   if (raw.type() != CV_16UC1) {

@@ -4,10 +4,12 @@
 #include <fstream>
 
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc::dataset {
 
 std::vector<TextRow> read_text_table(const std::filesystem::path& path) {
+  check_input_file(path, "list file");
   std::ifstream in(path);
   if (!in) throw Error("cannot open file", {.file = path.string()});
   std::vector<TextRow> rows;

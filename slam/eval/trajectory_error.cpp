@@ -71,8 +71,22 @@ ErrorStats compute_stats(const std::vector<double>& errors) {
   return s;
 }
 
+namespace {
+
+// Says what is wrong before association would blame the timestamps.
+void check_inputs(const Trajectory& ground_truth, const Trajectory& estimate, double max_dt) {
+  if (!(max_dt >= 0.0 && std::isfinite(max_dt))) {
+    throw Error("must be a non-negative number of seconds", {.field = "max_dt"});
+  }
+  if (ground_truth.empty()) throw Error("the ground truth trajectory is empty (no poses)");
+  if (estimate.empty()) throw Error("the estimated trajectory is empty (no poses)");
+}
+
+}  // namespace
+
 AteResult compute_ate(const Trajectory& ground_truth, const Trajectory& estimate,
                       const AteOptions& options) {
+  check_inputs(ground_truth, estimate, options.max_dt);
   const Associated a = associate(ground_truth, estimate, options.max_dt);
   if (a.gt.size() < 3) {
     throw Error("only " + std::to_string(a.gt.size()) + " poses associate within " +
@@ -94,6 +108,7 @@ AteResult compute_ate(const Trajectory& ground_truth, const Trajectory& estimate
 
 RpeResult compute_rpe(const Trajectory& ground_truth, const Trajectory& estimate,
                       const RpeOptions& options) {
+  check_inputs(ground_truth, estimate, options.max_dt);
   if (options.delta == 0) throw Error("RPE delta must be at least 1", {.field = "delta"});
   const Associated a = associate(ground_truth, estimate, options.max_dt);
   if (a.gt.size() <= options.delta) {

@@ -46,25 +46,11 @@ settings::Settings settings_saved_in(const LocalizationMap& map,
                                      const std::filesystem::path& map_path) {
   const ErrorContext where{.file = map_path.string(), .field = "metadata.settings"};
   if (map.metadata.settings.empty()) throw Error("the map holds no camera settings", where);
-  // load_settings reads files (OpenCV FileStorage): the text goes through a private temporary
-  // file, named by process and map so that concurrent loads do not share one.
-  const std::filesystem::path tmp =
-      std::filesystem::temp_directory_path() /
-      ("coloc-map-settings-" + std::to_string(::getpid()) + "-" +
-       std::to_string(reinterpret_cast<std::uintptr_t>(&map)) + ".yaml");
-  {
-    std::ofstream out(tmp);
-    out << map.metadata.settings;
-    if (!out) throw Error("cannot write a temporary settings file", {.file = tmp.string()});
-  }
   try {
-    settings::Settings s = settings::load_settings(tmp);
-    std::filesystem::remove(tmp);
-    s.source = map_path.string() + " (metadata.settings)";
+    settings::Settings s =
+        settings::parse_settings(map.metadata.settings, map_path.string() + " (metadata.settings)");
     return s;
   } catch (const Error& e) {
-    std::error_code ignored;
-    std::filesystem::remove(tmp, ignored);
     throw Error("the settings saved in the map: " + e.message(), where);
   }
 }

@@ -7,7 +7,7 @@
 #include <span>
 #include <thread>
 
-#include "slam/mapdb/atomic_file.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/mapdb/mapdb.hpp"
 #include "slam/mapdb/save_common.hpp"
 #include "slam/mapdb/writer.hpp"

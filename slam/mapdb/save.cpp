@@ -4,8 +4,8 @@
 #include <algorithm>
 #include <chrono>
 
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
-#include "slam/mapdb/atomic_file.hpp"
 #include "slam/mapdb/mapdb.hpp"
 #include "slam/mapdb/save_common.hpp"
 #include "slam/mapdb/writer.hpp"

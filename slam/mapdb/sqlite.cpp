@@ -7,6 +7,7 @@
 #include <cstring>
 
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc::slam::mapdb::detail {
 
@@ -69,6 +70,7 @@ void ContentHash::null() {
 // --------------------------------------------------------------------------------- Database
 
 Database::Database(const std::filesystem::path& path, Mode mode) : path_(path) {
+  if (mode != Mode::kCreate) check_input_file(path, "map file");
   const int flags =
       mode == Mode::kCreate ? SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE : SQLITE_OPEN_READONLY;
   const int rc = sqlite3_open_v2(path.c_str(), &db_, flags | SQLITE_OPEN_NOMUTEX, nullptr);

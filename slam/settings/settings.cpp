@@ -3,29 +3,77 @@
 #include <spdlog/spdlog.h>
 
 #include <cmath>
+#include <fstream>
 #include <opencv2/core.hpp>
 #include <set>
 
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc::settings {
 namespace {
+
+constexpr int kMaxImageSide = 65535;
+constexpr int kMaxFeatures = 100000;
+constexpr std::size_t kMaxSettingsBytes = 1 << 20;
+
+// OpenCV 4.6's YAML reader loops forever on a line of four or more dashes followed by more
+// text ("----x", found by scripts/fuzz_settings). A settings file has one use for dashes at the
+// start of a line, the document marker "---", so anything else starting with "---" is refused.
+void check_document_markers(const std::string& text, const std::filesystem::path& path) {
+  std::int64_t line = 1;
+  for (std::size_t start = 0; start < text.size(); ++line) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string::npos) end = text.size();
+    const std::string_view row(text.data() + start, end - start);
+    if (row.starts_with("---") && row.size() > 3 && row[3] != ' ' && row[3] != '\t' &&
+        row[3] != '\r') {
+      throw Error("a line starting with '---' that is not the YAML document marker",
+                  {.file = path.string(), .line = line});
+    }
+    start = end + 1;
+  }
+}
+
+// The whole file, refused when it cannot be a settings file: OpenCV's parser stops at a NUL
+// byte and asserts on some binary input instead of naming where the problem is.
+std::string read_text(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("cannot open settings file", {.file = path.string()});
+  std::string text;
+  char buffer[4096];
+  while (in.read(buffer, sizeof(buffer)) || in.gcount() > 0) {
+    text.append(buffer, static_cast<std::size_t>(in.gcount()));
+    if (text.size() > kMaxSettingsBytes)
+      throw Error("larger than 1 MiB: not a settings file", {.file = path.string()});
+  }
+  return text;
+}
+
+void check_text(const std::string& text, const std::filesystem::path& path) {
+  if (const auto nul = text.find('\0'); nul != std::string::npos) {
+    throw Error("binary data (a NUL byte): not a YAML settings file",
+                {.file = path.string(), .offset = nul});
+  }
+  check_document_markers(text, path);
+}
 
 // Typed access to the top-level keys of one file, remembering which keys were used so the
 // rest can be reported.
 class KeyReader {
  public:
-  explicit KeyReader(const std::filesystem::path& path) : path_(path) {
+  KeyReader(const std::string& text, const std::filesystem::path& path) : path_(path) {
+    check_text(text, path);
     try {
-      if (!storage_.open(path.string(), cv::FileStorage::READ)) {
+      if (!storage_.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY)) {
         throw Error("cannot open settings file", {.file = path.string()});
       }
+      for (const auto& node : storage_.root())
+        keys_.push_back(node.name());
     } catch (const cv::Exception& e) {
       throw Error("not a readable YAML settings file (" + std::string(e.err) + ")",
                   {.file = path.string()});
     }
-    for (const auto& node : storage_.root())
-      keys_.push_back(node.name());
   }
 
   bool has(const std::string& key) const { return !storage_[key].empty(); }
@@ -35,7 +83,10 @@ class KeyReader {
     if (node.empty()) return std::nullopt;
     used_.insert(key);
     if (!node.isReal() && !node.isInt()) fail(key, "expected a number");
-    return static_cast<double>(node.real());
+    const double value = node.real();
+    // YAML's .nan / .inf parse as reals; no setting means either.
+    if (!std::isfinite(value)) fail(key, "expected a finite number");
+    return value;
   }
 
   double required_number(const std::string& key) {
@@ -48,6 +99,7 @@ class KeyReader {
     const auto v = number(key);
     if (!v) return std::nullopt;
     if (std::floor(*v) != *v) fail(key, "expected an integer, got " + std::to_string(*v));
+    if (std::abs(*v) > 1e9) fail(key, "integer " + std::to_string(*v) + " out of range");
     return static_cast<int>(*v);
   }
 
@@ -87,7 +139,12 @@ Camera read_camera(KeyReader& keys, int file_version) {
   const double fy = keys.required_number(p + "fy");
   const double cx = keys.required_number(p + "cx");
   const double cy = keys.required_number(p + "cy");
-  if (!(fx > 0.0) || !(fy > 0.0)) keys.fail(p + "fx", "focal lengths must be positive");
+  if (!(fx > 0.0)) keys.fail(p + "fx", "focal length must be positive (pixels)");
+  if (!(fy > 0.0)) keys.fail(p + "fy", "focal length must be positive (pixels)");
+  // 0 = not given; anything else is the image size, which a camera can actually have.
+  if (width < 0 || width > kMaxImageSide) keys.fail("Camera.width", "must be in 1..65535 pixels");
+  if (height < 0 || height > kMaxImageSide)
+    keys.fail("Camera.height", "must be in 1..65535 pixels");
   auto coeff = [&](const std::string& k) { return keys.number(p + k).value_or(0.0); };
   if (type == "PinHole" || type == "Rectified") {
     return PinholeCamera{width,
@@ -130,11 +187,14 @@ std::optional<DepthSettings> read_depth(KeyReader& keys, int file_version, doubl
   if (!(d.baseline > 0.0)) keys.fail(file_version >= 1 ? "Stereo.b" : "Camera.bf", "must be > 0");
   d.th_depth = th.value_or(40.0);
   d.close_depth = d.baseline * d.th_depth;
+  if (!(d.th_depth >= 0.0))
+    keys.fail(file_version >= 1 ? "Stereo.ThDepth" : "ThDepth", "must not be negative");
   d.depth_map_factor = factor.value_or(1.0);
-  // ORB-SLAM treats a zero factor as "depth already in metres".
-  if (std::abs(d.depth_map_factor) < 1e-5) d.depth_map_factor = 1.0;
-  if (d.depth_map_factor < 0.0) {
-    keys.fail(file_version >= 1 ? "RGBD.DepthMapFactor" : "DepthMapFactor", "must be positive");
+  // ORB-SLAM silently reads 0 as "depth already in metres"; a zero scale is more often a typo,
+  // and every depth would become 0 or infinite, so the unit is asked for explicitly.
+  if (!(d.depth_map_factor > 0.0)) {
+    keys.fail(file_version >= 1 ? "RGBD.DepthMapFactor" : "DepthMapFactor",
+              "must be positive (raw depth units per metre: 5000 TUM, 1000 millimetres, 1 metres)");
   }
   return d;
 }
@@ -146,9 +206,17 @@ OrbSettings read_orb(KeyReader& keys) {
   o.n_levels = keys.integer("ORBextractor.nLevels").value_or(o.n_levels);
   o.ini_th_fast = keys.integer("ORBextractor.iniThFAST").value_or(o.ini_th_fast);
   o.min_th_fast = keys.integer("ORBextractor.minThFAST").value_or(o.min_th_fast);
-  if (o.n_features <= 0) keys.fail("ORBextractor.nFeatures", "must be positive");
-  if (!(o.scale_factor > 1.0)) keys.fail("ORBextractor.scaleFactor", "must be > 1");
+  // Upper bounds: far beyond any useful value, low enough that the extractor's buffers (sized
+  // by them) cannot exhaust memory.
+  if (o.n_features <= 0 || o.n_features > kMaxFeatures)
+    keys.fail("ORBextractor.nFeatures", "must be in 1..100000");
+  if (!(o.scale_factor > 1.0 && o.scale_factor <= 4.0))
+    keys.fail("ORBextractor.scaleFactor", "must be in (1, 4]");
   if (o.n_levels <= 0 || o.n_levels > 32) keys.fail("ORBextractor.nLevels", "must be in 1..32");
+  if (o.ini_th_fast < 1 || o.ini_th_fast > 254)
+    keys.fail("ORBextractor.iniThFAST", "must be in 1..254 (grey levels)");
+  if (o.min_th_fast < 1 || o.min_th_fast > 254)
+    keys.fail("ORBextractor.minThFAST", "must be in 1..254 (grey levels)");
   return o;
 }
 
@@ -164,12 +232,8 @@ std::filesystem::path map_file(KeyReader& keys, const std::string& key) {
   return p;
 }
 
-}  // namespace
-
-Settings load_settings(const std::filesystem::path& path) {
-  if (!std::filesystem::exists(path))
-    throw Error("settings file not found", {.file = path.string()});
-  KeyReader keys(path);
+Settings read_settings(const std::string& text, const std::filesystem::path& path) {
+  KeyReader keys(text, path);
   Settings s;
   s.source = path;
   if (const auto version = keys.text("File.version")) {
@@ -178,6 +242,7 @@ Settings load_settings(const std::filesystem::path& path) {
   }
   s.camera = read_camera(keys, s.file_version);
   s.fps = keys.number("Camera.fps").value_or(s.fps);
+  if (!(s.fps > 0.0 && s.fps <= 10000.0)) keys.fail("Camera.fps", "must be in (0, 10000] Hz");
   s.rgb_order = keys.integer("Camera.RGB").value_or(0) != 0;  // ORB-SLAM: absent = BGR
   s.readout_time = keys.number("Camera.readoutTime").value_or(0.0);
   if (!(s.readout_time >= 0.0 && s.readout_time < 1.0))
@@ -201,6 +266,22 @@ Settings load_settings(const std::filesystem::path& path) {
     spdlog::warn("{}: unknown key '{}' ignored", path.string(), key);
   }
   return s;
+}
+
+}  // namespace
+
+Settings load_settings(const std::filesystem::path& path) {
+  check_input_file(path, "settings file");
+  return parse_settings(read_text(path), path.string());
+}
+
+Settings parse_settings(const std::string& text, const std::string& source) {
+  try {
+    return read_settings(text, source);
+  } catch (const cv::Exception& e) {
+    // OpenCV asserts on some malformed nodes only when they are read.
+    throw Error("not a readable YAML settings file (" + std::string(e.err) + ")", {.file = source});
+  }
 }
 
 }  // namespace coloc::settings

@@ -72,5 +72,8 @@ struct Settings {
 // Throws coloc::Error (file and key named) for unreadable files, missing required keys and
 // wrong value types.
 Settings load_settings(const std::filesystem::path& path);
+// The same for settings held in memory (a map file keeps the YAML it was built with); `source`
+// names them in errors.
+Settings parse_settings(const std::string& text, const std::string& source);
 
 }  // namespace coloc::settings

@@ -181,8 +181,11 @@ tracking::TrackingResult System::track(const cv::Mat& image, const cv::Mat& dept
                     std::to_string(image_width(settings_.camera)) + "x" +
                     std::to_string(image_height(settings_.camera)),
                 {settings_.source.string(), "Camera.width"});
-  if (!depth.empty() && depth.size() != image.size())
-    throw Error("System::track: depth image size differs from the colour image");
+  if (!depth.empty() && depth.size() != image.size()) {
+    throw Error("System::track: depth image is " + std::to_string(depth.cols) + "x" +
+                std::to_string(depth.rows) + ", the colour image " + std::to_string(image.cols) +
+                "x" + std::to_string(image.rows));
+  }
   auto r = tracker_->track(image, depth, timestamp);
   extract_ms_.push_back(r.extract_ms);
   track_ms_.push_back(r.track_ms);

@@ -78,11 +78,34 @@ cv::Mat to_grey(const cv::Mat& image, bool rgb) {
   return grey;
 }
 
+// Images that do not belong to this camera are an input error (coloc::Error with the sizes),
+// not an OpenCV assertion deep in extraction: callers replaying files skip the frame and name
+// it, as they do for unreadable files.
+void check_images(const cv::Mat& image, const cv::Mat& depth, const Camera& camera) {
+  if (image.empty()) throw Error("empty image");
+  if (image.depth() != CV_8U ||
+      (image.channels() != 1 && image.channels() != 3 && image.channels() != 4)) {
+    throw Error("image is not 8-bit grey, colour or colour + alpha");
+  }
+  const auto size_text = [](int w, int h) { return std::to_string(w) + "x" + std::to_string(h); };
+  const int width = image_width(camera), height = image_height(camera);
+  if (width > 0 && height > 0 && (image.cols != width || image.rows != height)) {
+    throw Error("image is " + size_text(image.cols, image.rows) + ", the camera's " +
+                    size_text(width, height),
+                {.field = "Camera.width/Camera.height"});
+  }
+  if (!depth.empty() && depth.size() != image.size()) {
+    throw Error("depth image is " + size_text(depth.cols, depth.rows) + ", the colour image " +
+                size_text(image.cols, image.rows));
+  }
+}
+
 void Tracker::compute_bow(frame::Frame& f) const {
   if (f.bow.empty()) vocabulary_.transform(f.features.descriptors, f.bow, f.feature_vector);
 }
 
 TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double timestamp) {
+  check_images(image, depth, camera_);
   TrackingResult result;
   Stopwatch watch;
   const cv::Mat grey = to_grey(image, options_.rgb_input);

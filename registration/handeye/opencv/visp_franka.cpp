@@ -8,12 +8,14 @@
 #include <sstream>
 
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc::registration::handeye {
 
 namespace {
 
 std::string read_text(const std::filesystem::path& path) {
+  check_input_file(path, "ViSP file");
   std::ifstream in(path);
   if (!in) throw Error("cannot open file", {.file = path.string()});
   std::stringstream buffer;
@@ -39,6 +41,7 @@ double xml_number(const std::string& text, const std::string& tag,
 
 // ViSP's vpPoseVector YAML: "data:" followed by six "- [value]" lines: t (m) then theta-u (rad).
 SE3 read_pose_vector(const std::filesystem::path& path) {
+  check_input_file(path, "ViSP pose file");
   std::ifstream in(path);
   if (!in) throw Error("cannot open file", {.file = path.string()});
   std::string line;

@@ -9,8 +9,8 @@
 #include <random>
 #include <set>
 
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
-#include "slam/mapdb/atomic_file.hpp"
 #include "slam/mapdb/writer.hpp"
 #include "tests/slam/mapdb/map_compare.hpp"
 #include "tests/slam/mapdb/mapdb_test_support.hpp"

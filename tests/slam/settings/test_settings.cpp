@@ -1,4 +1,5 @@
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <fstream>
 #include <map>
@@ -151,6 +152,69 @@ TEST(Settings, UnreadableFilesAreErrors) {
   const auto dir = testing::temp_dir("settings_garbage");
   std::ofstream(dir / "garbage.yaml") << "%YAML:1.0\nCamera.fx: [1, 2\n  : : :\n";
   EXPECT_THROW(load_settings(dir / "garbage.yaml"), Error);
+}
+
+// Issue 17: values a camera cannot have are errors naming the key, not a run that fails later
+// (a zero depth scale, std::bad_alloc from a billion features, NaN from ".nan").
+TEST(Settings, PhysicallyImpossibleValuesNameTheKey) {
+  const std::string depth = std::string(kMinimal) + "Camera.bf: 40.0\nThDepth: 40.0\n";
+  expect_error(write("zero_scale.yaml", depth + "DepthMapFactor: 0.0\n"), "DepthMapFactor");
+  expect_error(write("nan_scale.yaml", depth + "DepthMapFactor: .nan\n"), "DepthMapFactor");
+  expect_error(
+      write("huge_features.yaml", std::string(kMinimal) + "ORBextractor.nFeatures: 1000000000\n"),
+      "ORBextractor.nFeatures");
+  expect_error(write("overflow.yaml", std::string(kMinimal) + "ORBextractor.nLevels: 1e30\n"),
+               "ORBextractor.nLevels");
+  expect_error(write("inf_fx.yaml", "Camera.fx: .inf\nCamera.fy: 1\nCamera.cx: 1\nCamera.cy: 1\n"),
+               "Camera.fx");
+  expect_error(write("neg_width.yaml", std::string(kMinimal) + "Camera.width: -640\n"),
+               "Camera.width");
+  expect_error(write("fast.yaml", std::string(kMinimal) + "ORBextractor.iniThFAST: 0\n"),
+               "ORBextractor.iniThFAST");
+  expect_error(write("fps.yaml", std::string(kMinimal) + "Camera.fps: 0\n"), "Camera.fps");
+}
+
+TEST(Settings, PathsThatAreNotRegularFilesAreRefusedBeforeOpening) {
+  const auto dir = testing::temp_dir("settings_paths");
+  const std::filesystem::path fifo = dir / "pipe.yaml";
+  std::filesystem::remove(fifo);
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  // Opening a FIFO for reading would block forever; the check names what the path is.
+  try {
+    load_settings(fifo);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("FIFO"), std::string::npos) << e.what();
+    EXPECT_EQ(e.context().file, fifo.string());
+  }
+  try {
+    load_settings(dir);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("directory"), std::string::npos) << e.what();
+  }
+  std::filesystem::remove(fifo);
+}
+
+// The fuzzer's first finding was a file with a NUL byte on which OpenCV asserted while the keys
+// were listed; binary input is now refused with its offset before OpenCV sees it.
+TEST(Settings, BinaryAndParserTrapsAreErrorsWithAPlace) {
+  const auto dir = testing::temp_dir("settings_traps");
+  std::ofstream(dir / "nul.yaml", std::ios::binary) << std::string("%YAML:1.0\nCamera.fx: 1\0", 24);
+  try {
+    load_settings(dir / "nul.yaml");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().offset, 22u) << e.what();
+  }
+  // OpenCV 4.6's reader loops forever on this (found by scripts/fuzz_settings).
+  std::ofstream(dir / "dashes.yaml") << "%YAML:1.0\n----x\n----\nr";
+  try {
+    load_settings(dir / "dashes.yaml");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().line, 2) << e.what();
+  }
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-#include "slam/mapdb/atomic_file.hpp"
+#include "slam/core/atomic_file.hpp"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -6,12 +6,13 @@
 
 #include <cerrno>
 #include <cstring>
+#include <fstream>
 #include <string>
 #include <system_error>
 
 #include "slam/core/error.hpp"
 
-namespace coloc::slam::mapdb {
+namespace coloc {
 
 namespace fs = std::filesystem;
 
@@ -86,4 +87,33 @@ void AtomicFile::remove_stale(const fs::path& target) {
   }
 }
 
-}  // namespace coloc::slam::mapdb
+AtomicOutput::AtomicOutput(fs::path target, bool sync, std::ios::openmode mode)
+    : file_(std::move(target)), sync_(sync) {
+  open(file_.temp_path(), mode);
+  if (!is_open())
+    throw Error("cannot open " + file_.temp_path().string(), {file_.target().string()});
+}
+
+void AtomicOutput::commit() {
+  close();
+  if (fail()) throw Error("writing failed (disk full?)", {file_.target().string()});
+  file_.commit(sync_);
+}
+
+void write_file_atomically(const fs::path& target, const std::function<void(std::ostream&)>& write,
+                           bool sync) {
+  AtomicOutput out(target, sync, std::ios::binary | std::ios::trunc);
+  write(out);
+  out.commit();
+}
+
+void write_file_atomically(const fs::path& target, std::string_view bytes, bool sync) {
+  write_file_atomically(
+      target,
+      [bytes](std::ostream& out) {
+        out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+      },
+      sync);
+}
+
+}  // namespace coloc
