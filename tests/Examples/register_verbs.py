@@ -33,7 +33,7 @@ def make_map(coloc, tmp):
         [coloc, "twin", "generate", "--preset", "room", "--seed", "2", "--seconds", "12",
          "--face-size", "1024", "--out", twin, "--json"],
         [coloc, "scan-markers", os.path.join(twin, "scan", "scan.e57"), "--dictionary",
-         "DICT_4X4_50", "--out", os.path.join(tmp, "markers.yaml")],
+         "DICT_4X4_50", "--size", "0.1675", "--out", os.path.join(tmp, "markers.yaml")],
         [coloc, "map", "--sequence", os.path.join(twin, "sequence"), "--trajectory",
          os.path.join(tmp, "trajectory.txt"), "--save", os.path.join(tmp, "map.db"), "--json"],
     ]
