@@ -7,6 +7,8 @@
 #include <cstring>
 #include <memory>
 
+#include "fusion/osc_wire.hpp"
+
 namespace coloc::fusion::session {
 namespace {
 
@@ -114,6 +116,12 @@ void decode_message(const std::uint8_t* data, std::size_t size, WireResult& r) {
   std::array<std::uint8_t, 4096> copy{};  // liblo wants a mutable buffer
   if (size > copy.size()) {
     fail(r, OscError::kOversized, "message larger than 4096 bytes");
+    return;
+  }
+  // liblo reads whatever the type tags promise (fusion/osc_wire.hpp): it only gets messages
+  // whose every argument is known to lie inside the datagram.
+  if (const std::string reason = check_osc_message(data, size); !reason.empty()) {
+    fail(r, OscError::kMalformed, "not an OSC message: " + reason);
     return;
   }
   std::memcpy(copy.data(), data, size);

@@ -80,6 +80,8 @@ TEST(SessionWire, BadInputIsAnErrorValue) {
     return r.error;
   };
   EXPECT_EQ(feed({1, 2, 3}), OscError::kMalformed);
+  // A blob tag with no blob behind it: liblo would read past the datagram (issue 17).
+  EXPECT_EQ(feed({'/', 'x', 0, 0, ',', 'b', 0, 0}), OscError::kMalformed);
   EXPECT_EQ(feed(std::vector<std::uint8_t>(2000, 0)), OscError::kOversized);
   EXPECT_EQ(feed(encode_pose("/coloc/somewhere", sample())), OscError::kUnknownAddress);
   std::vector<std::uint8_t> wrong = encode_get("x", 0);  // /coloc/get_pose "s": valid
@@ -90,8 +92,8 @@ TEST(SessionWire, BadInputIsAnErrorValue) {
   bad = sample();
   bad.time = std::numeric_limits<double>::quiet_NaN();
   EXPECT_EQ(feed(encode_head(bad, "vive")), OscError::kInvalidValue);
-  EXPECT_EQ(stats.packets, 6u);
-  EXPECT_EQ(stats.malformed, 1u);
+  EXPECT_EQ(stats.packets, 7u);
+  EXPECT_EQ(stats.malformed, 2u);
   EXPECT_EQ(stats.oversized, 1u);
   EXPECT_EQ(stats.unknown_address, 1u);
   EXPECT_EQ(stats.invalid_values, 2u);
