@@ -18,9 +18,9 @@
 #include "fusion/session/log.hpp"
 #include "fusion/session/node.hpp"
 #include "fusion/session/simulate.hpp"
+#include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/trajectory.hpp"
-#include "slam/core/atomic_file.hpp"
 
 namespace coloc::cli {
 namespace {
@@ -73,6 +73,7 @@ Json stats_json(const fs::SessionNodeStats& s) {
             {"untagged", s.untagged},
             {"bad_controller", c.bad_controller},
             {"out_of_order", c.out_of_order},
+            {"implausible", c.implausible},
             {"waiting_for_anchor", c.waiting_for_anchor},
             {"malformed", s.wire.malformed},
             {"oversized", s.wire.oversized},
@@ -99,12 +100,14 @@ void print_stats(const fs::SessionNodeStats& s, bool json) {
       static_cast<unsigned long long>(c.reload_failures));
   std::printf(
       "dropped: unknown participant %llu, untagged %llu, bad controller %llu, old sequence %llu, "
-      "before the anchor %llu, malformed %llu, oversized %llu, unknown address %llu, wrong types "
+      "implausible %llu, before the anchor %llu, malformed %llu, oversized %llu, unknown address "
+      "%llu, wrong types "
       "%llu, invalid values %llu\n",
       static_cast<unsigned long long>(c.unknown_participant),
       static_cast<unsigned long long>(s.untagged),
       static_cast<unsigned long long>(c.bad_controller),
       static_cast<unsigned long long>(c.out_of_order),
+      static_cast<unsigned long long>(c.implausible),
       static_cast<unsigned long long>(c.waiting_for_anchor),
       static_cast<unsigned long long>(s.wire.malformed),
       static_cast<unsigned long long>(s.wire.oversized),
@@ -191,9 +194,10 @@ void run_check(const std::string& config, bool json) {
   }
   Json users = Json::array();
   for (const fs::ParticipantConfig& p : session.config().participants) {
-    users.push_back({{"id", p.id},
-                     {"kind", fs::to_string(p.kind)},
-                     {"world_from_vr", json_row_major(session.snapshot(p.id).world_from_vr.matrix())}});
+    users.push_back(
+        {{"id", p.id},
+         {"kind", fs::to_string(p.kind)},
+         {"world_from_vr", json_row_major(session.snapshot(p.id).world_from_vr.matrix())}});
   }
   print_json({{"participants", users}});
 }

@@ -148,7 +148,8 @@ LatencyBenchReport bench_session_latency(const LatencyBenchOptions& o) {
   r.received = latencies.size();
   r.counted = r.node.wire.malformed + r.node.wire.oversized + r.node.wire.unknown_address +
               r.node.wire.wrong_types + r.node.wire.invalid_values + r.node.untagged +
-              s.unknown_participant + s.bad_controller + s.out_of_order + s.waiting_for_anchor;
+              s.unknown_participant + s.bad_controller + s.out_of_order + s.implausible +
+              s.waiting_for_anchor;
   r.lost = r.sent > r.received + r.counted ? r.sent - r.received - r.counted : 0;
   r.messages_per_second = static_cast<double>(r.sent) / wall;
   if (!latencies.empty()) {

@@ -223,7 +223,7 @@ void SessionNode::handle(const Socket& socket, const OscPeer& from, const Sessio
       log(id, controller_device(m.controller), m.pose, now);
       break;
     case MessageKind::kGlobal:
-      session_.push_global(id, m.pose);
+      session_.push_global(id, m.pose, now);
       log(id, "global", m.pose, now);
       break;
     case MessageKind::kGetPose: {

@@ -104,6 +104,21 @@ void Session::emit(Track& track, double time, UserState state, const SE3& world_
   ++stats_.published;
 }
 
+bool Session::admit(StreamGuard& guard, const PoseMessage& m, double now) {
+  // One stream's plausibility (fusion/stream_guard.hpp): no single message from any peer can
+  // freeze a participant's stream, and a restarted sender is taken back.
+  last_verdict_ = guard.check(m.sequence, m.time, now);
+  if (last_verdict_ == StreamVerdict::kStale) {
+    ++stats_.out_of_order;
+    return false;
+  }
+  if (last_verdict_ == StreamVerdict::kImplausible) {
+    ++stats_.implausible;
+    return false;
+  }
+  return true;
+}
+
 void Session::push_head(const std::string& id, const PoseMessage& vr_from_head, double now,
                         std::vector<Output>& out) {
   Participant* p = find(id);
@@ -111,10 +126,8 @@ void Session::push_head(const std::string& id, const PoseMessage& vr_from_head, 
     ++stats_.unknown_participant;
     return;
   }
-  if (!p->head.guard.accept(vr_from_head.sequence)) {
-    ++stats_.out_of_order;
-    return;
-  }
+  if (!admit(p->head.guard, vr_from_head, now)) return;
+  if (last_verdict_ == StreamVerdict::kResynced && p->fuser) p->fuser->restart_xr_clock();
   if (!anchored_) {
     ++stats_.waiting_for_anchor;
     return;
@@ -146,10 +159,7 @@ void Session::push_controller(const std::string& id, int index,
     return;
   }
   Track& track = p->controllers[static_cast<std::size_t>(index)];
-  if (!track.guard.accept(vr_from_controller.sequence)) {
-    ++stats_.out_of_order;
-    return;
-  }
+  if (!admit(track.guard, vr_from_controller, now)) return;
   if (!anchored_) {
     ++stats_.waiting_for_anchor;
     return;
@@ -164,16 +174,14 @@ void Session::push_controller(const std::string& id, int index,
   emit(track, vr_from_controller.time, state_of(*p), world_from_controller, out);
 }
 
-void Session::push_global(const std::string& id, const PoseMessage& world_from_head) {
+void Session::push_global(const std::string& id, const PoseMessage& world_from_head, double now) {
   Participant* p = find(id);
   if (p == nullptr) {
     ++stats_.unknown_participant;
     return;
   }
-  if (!p->global_guard.accept(world_from_head.sequence)) {
-    ++stats_.out_of_order;
-    return;
-  }
+  if (!admit(p->global_guard, world_from_head, now)) return;
+  if (last_verdict_ == StreamVerdict::kResynced && p->fuser) p->fuser->restart_global_clock();
   if (!p->fuser) return;  // drift correction off for this participant
   ++stats_.global_poses;
   const auto tracking = world_from_head.state == 0   ? TrackingState::kLost

@@ -27,6 +27,7 @@
 #include "fusion/osc.hpp"
 #include "fusion/osc_node.hpp"  // SequenceGuard
 #include "fusion/session/config.hpp"
+#include "fusion/stream_guard.hpp"
 #include "registration/handeye/io.hpp"
 
 namespace coloc::fusion::session {
@@ -55,6 +56,7 @@ struct SessionStats {
   std::uint64_t unknown_participant = 0;
   std::uint64_t bad_controller = 0;      // controller index out of the participant's range
   std::uint64_t out_of_order = 0;        // older sequence number than the stream's last
+  std::uint64_t implausible = 0;         // out of line with the stream (StreamGuard)
   std::uint64_t waiting_for_anchor = 0;  // poses before the anchor camera was localized
   std::uint64_t stale_events = 0;        // transitions to stale (head and controllers)
   std::uint64_t reloads = 0;             // calibrations replaced while running
@@ -104,7 +106,7 @@ class Session {
                        double now, std::vector<Output>& out);
   // A global pose (world_from_head, e.g. from `coloc localize --cam-from-head` on that user's
   // headset camera) for drift correction.
-  void push_global(const std::string& id, const PoseMessage& world_from_head);
+  void push_global(const std::string& id, const PoseMessage& world_from_head, double now);
   // A localizer pose of the anchor camera (AnchorMode::kLocalize).
   void push_anchor(const PoseMessage& world_from_camera);
 
@@ -132,7 +134,7 @@ class Session {
     bool have = false;
     bool stale = false;
     double last_seen = 0.0;
-    SequenceGuard guard;
+    StreamGuard guard;
     Output last;
   };
   struct Participant {
@@ -140,12 +142,15 @@ class Session {
     registration::handeye::CalibrationFile calibration;
     SE3 world_from_vr;
     std::unique_ptr<DriftFuser> fuser;  // only with drift correction
-    SequenceGuard global_guard;
+    StreamGuard global_guard;
     Track head;
     std::vector<Track> controllers;
     std::uint64_t version = 0;
   };
 
+  // StreamGuard's verdict on m (arrived at `now`, session clock); false when it is dropped
+  // (counted). The verdict stays in last_verdict_ for the caller's resync.
+  bool admit(StreamGuard& guard, const PoseMessage& m, double now);
   Participant* find(const std::string& id);
   const Participant* find(const std::string& id) const;
   void place(Participant& p) const;
@@ -162,6 +167,7 @@ class Session {
   SE3 world_from_camera_;
   std::vector<SE3> anchor_samples_;
   SessionStats stats_;
+  StreamVerdict last_verdict_ = StreamVerdict::kAccepted;
 };
 
 // Output addresses.

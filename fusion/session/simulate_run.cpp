@@ -252,7 +252,7 @@ SE3 feed(const MultiUserOptions& o, const Member& m, int k, int i, Session& sess
                         : 0;
   if (every > 0 && i % every == 0) {
     session.push_global(
-        m.id, message(t, i, noisy(truth.head, rng, o.global_sigma, o.global_sigma / 3.0)));
+        m.id, message(t, i, noisy(truth.head, rng, o.global_sigma, o.global_sigma / 3.0)), t);
   }
   return head;
 }

@@ -75,13 +75,30 @@ TEST_F(TwoUsers, ControllersShareTheirSystemsPlacement) {
 
 TEST_F(TwoUsers, UnknownOutOfOrderAndCountedNeverFatal) {
   session.push_head("nobody", message(1.0, 1, SE3()), 0.0, out);
-  session.push_global("nobody", message(1.0, 1, SE3()));
+  session.push_global("nobody", message(1.0, 1, SE3()), 0.0);
   session.push_head("vive", message(1.0, 5, SE3()), 0.0, out);
   session.push_head("vive", message(0.9, 4, SE3()), 0.0, out);  // older sequence
   EXPECT_EQ(out.size(), 1u);
   EXPECT_EQ(session.stats().unknown_participant, 2u);
   EXPECT_EQ(session.stats().out_of_order, 1u);
   EXPECT_FALSE(session.current("nobody", out));
+}
+
+// Issue 17's class 1 for the session: one message stamped far in the future (or with a jumped
+// sequence number) must not freeze a user's stream; a restarted sender is taken back.
+TEST_F(TwoUsers, OneAbsurdMessageDoesNotFreezeAUser) {
+  session.push_head("vive", message(1.0, 1, SE3()), 0.0, out);
+  session.push_head("vive", message(1e9, 2, SE3()), 0.01, out);     // far future
+  session.push_head("vive", message(1.02, 5000, SE3()), 0.02, out);  // sequence jump
+  EXPECT_EQ(session.stats().implausible, 2u);
+  out.clear();
+  for (int i = 0; i < 3; ++i)
+    session.push_head("vive", message(1.03 + 0.01 * i, 2 + i, SE3()), 0.03 + 0.01 * i, out);
+  EXPECT_EQ(out.size(), 3u) << "the real stream goes on";
+  out.clear();
+  for (int i = 0; i < 6; ++i)  // restarted sender: sequence and clock from the beginning
+    session.push_head("vive", message(0.1 + 0.01 * i, 1 + i, SE3()), 0.1 + 0.01 * i, out);
+  EXPECT_GE(out.size(), 1u) << "re-anchored after a few consistent messages";
 }
 
 TEST_F(TwoUsers, StaleAfterTimeoutNotFrozen) {
@@ -149,7 +166,7 @@ TEST_F(TwoUsers, GlobalPosesDriftCorrectHeadAndControllers) {
     session.push_head("vive", message(t, i, vr_from_head), t, out);
     if (i % 4 == 2) {
       const SE3 calibrated = world_from_camera * vive_from_camera.inverse() * vr_from_head;
-      session.push_global("vive", message(t, i, drift * calibrated));
+      session.push_global("vive", message(t, i, drift * calibrated), t);
     }
   }
   const Output head = out.back();
