@@ -229,6 +229,11 @@ ViewServer::ViewServer(ViewServerOptions options) : impl_(std::make_unique<Impl>
     pthread_sigmask(SIG_BLOCK, &pipe, nullptr);
     d.http.listen_after_bind();
   });
+  // httplib's stop() does nothing until listen has begun (is_running): a server stopped right
+  // after construction would otherwise listen forever and its destructor never join.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (!d.http.is_running() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
   spdlog::debug("viewer listening on {}", url());
 }
 
