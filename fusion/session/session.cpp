@@ -35,7 +35,8 @@ std::string controller_address(std::string_view id, int index) {
   return "/coloc/users/" + std::string(id) + "/controller/" + std::to_string(index);
 }
 
-Session::Session(SessionConfig config, FuserOptions fuser) : Session(config, {}, fuser) {}
+Session::Session(SessionConfig config, FuserOptions fuser)
+    : Session(std::move(config), {}, fuser) {}
 
 Session::Session(SessionConfig config, std::vector<he::CalibrationFile> calibrations,
                  FuserOptions fuser)
