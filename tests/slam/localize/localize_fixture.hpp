@@ -50,7 +50,8 @@ inline void build_fixture(const std::filesystem::path& dir) {
   system::System slam(settings, test_support::vocabulary(), options);
   for (std::size_t i = 0; i < sequence->size(); ++i) {
     const dataset::Frame f = sequence->frame(i);
-    slam.track(f.color, f.depth, f.timestamp);
+    // The camera's channel order, as `coloc map` hands frames to tracking.
+    slam.track(dataset::to_camera_order(f.color, settings.rgb_order), f.depth, f.timestamp);
   }
   slam.optimize_map();
   write_tum_trajectory(dir / "mapped.txt", slam.trajectory());
@@ -68,7 +69,7 @@ inline void build_fixture(const std::filesystem::path& dir) {
 inline const LocalizeFixture& fixture() {
   namespace fs = std::filesystem;
   static const LocalizeFixture f = [] {
-    const fs::path dir = fs::path(COLOC_LOCALIZE_FIXTURE_DIR) / "twin_room_6s_v1";
+    const fs::path dir = fs::path(COLOC_LOCALIZE_FIXTURE_DIR) / "twin_room_6s_v2";
     fs::create_directories(dir.parent_path());
     if (!fs::exists(dir / "map.db")) {
       const std::string lock_path = dir.string() + ".lock";

@@ -41,9 +41,11 @@ Localizer make_localizer(Inputs& in) {
                    options_from_settings(in.settings));
 }
 
-LocalizationResult localize_frame(Localizer& l, const dataset::Sequence& s, std::size_t i) {
+LocalizationResult localize_frame(Localizer& l, const dataset::Sequence& s, std::size_t i,
+                                  bool rgb_order = true) {
   const dataset::Frame f = s.frame(i);
-  return l.localize(f.color, f.depth, f.timestamp);
+  // Localizer::localize takes the camera's channel order (Camera.RGB), as `coloc localize` does.
+  return l.localize(dataset::to_camera_order(f.color, rgb_order), f.depth, f.timestamp);
 }
 
 // The pose SLAM gave the frame at `t` while mapping (exact timestamp match).
