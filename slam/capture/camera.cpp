@@ -83,6 +83,10 @@ RealSenseDevice find_camera(DeviceSystem& system, const std::string& device) {
         return dev;
       }
   }
+  // A camera whose nodes could not be opened: the reason (busy, permissions) is the answer.
+  for (const RealSenseDevice& dev : d.devices)
+    for (const DiscoveredNode& n : dev.nodes)
+      if (n.error_number != 0) throw DeviceError(n.error, n.error_number, n.info.device.string());
   if (device != "auto")
     throw Error(device + " is not a node of a RealSense camera.\n" + no_camera_advice(d));
   throw Error(no_camera_advice(d));
@@ -186,8 +190,9 @@ RgbdFrame RgbdCamera::decode(const RawFrame& depth, const RawFrame& color, doubl
 }
 
 std::optional<RgbdFrame> RgbdCamera::next() {
+  bool ended = false;
   for (;;) {
-    if (auto p = pairer_.next()) {
+    if (auto p = pairer_.next(ended)) {
       try {
         return decode(p->depth, p->color, p->t_depth, p->t_color);
       } catch (const Error& e) {
@@ -195,10 +200,14 @@ std::optional<RgbdFrame> RgbdCamera::next() {
         continue;
       }
     }
+    if (ended) return std::nullopt;
     const bool want_depth = pairer_.wants_depth();
     Stream& s = want_depth ? *depth_ : *color_;
     std::optional<RawFrame> f = s.video->pop();
-    if (!f) return std::nullopt;  // that stream ended: nothing more can pair
+    if (!f) {  // that stream ended: pair what is left, then stop
+      ended = true;
+      continue;
+    }
     const double t = frame_time(s, *f);
     if (want_depth)
       pairer_.add_depth(t, std::move(*f));

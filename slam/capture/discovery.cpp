@@ -73,6 +73,7 @@ Discovery discover(DeviceSystem& system) {
       node.kind = classify(node.formats);
     } catch (const DeviceError& e) {
       node.error = e.what();
+      node.error_number = e.error_number();
       d.problems.push_back(e.what());
     }
     auto [it, added] = by_usb.try_emplace(info.usb_path, d.devices.size());

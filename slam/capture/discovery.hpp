@@ -18,6 +18,7 @@ struct DiscoveredNode {
   StreamKind kind = StreamKind::kOther;
   std::vector<NodeFormat> formats;
   std::string error;  // why the node could not be queried (then kind is kOther)
+  int error_number = 0;
 };
 
 struct RealSenseDevice {

@@ -1,5 +1,6 @@
 #include "slam/capture/formats.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <opencv2/imgproc.hpp>
 
@@ -77,17 +78,20 @@ cv::Mat decode_color(std::span<const std::uint8_t> bytes, std::uint32_t code, in
 std::vector<std::uint8_t> encode_yuyv(const cv::Mat& bgr) {
   if (bgr.type() != CV_8UC3 || bgr.cols % 2 != 0)
     throw Error("encode_yuyv: needs an 8UC3 image of even width");
-  cv::Mat yuv;
-  cv::cvtColor(bgr, yuv, cv::COLOR_BGR2YUV);
+  // BT.601 video range, what UVC cameras send and OpenCV's YUYV decoder expects.
+  auto luma = [](const cv::Vec3b& p) { return 16.0 + 0.257 * p[2] + 0.504 * p[1] + 0.098 * p[0]; };
+  auto u = [](const cv::Vec3b& p) { return 128.0 - 0.148 * p[2] - 0.291 * p[1] + 0.439 * p[0]; };
+  auto v = [](const cv::Vec3b& p) { return 128.0 + 0.439 * p[2] - 0.368 * p[1] - 0.071 * p[0]; };
+  auto byte = [](double x) { return static_cast<std::uint8_t>(std::clamp(x + 0.5, 0.0, 255.0)); };
   std::vector<std::uint8_t> out(static_cast<std::size_t>(bgr.total()) * 2);
   std::size_t k = 0;
-  for (int y = 0; y < yuv.rows; ++y) {
-    const auto* p = yuv.ptr<cv::Vec3b>(y);
-    for (int x = 0; x < yuv.cols; x += 2) {
-      out[k++] = p[x][0];
-      out[k++] = static_cast<std::uint8_t>((p[x][1] + p[x + 1][1] + 1) / 2);
-      out[k++] = p[x + 1][0];
-      out[k++] = static_cast<std::uint8_t>((p[x][2] + p[x + 1][2] + 1) / 2);
+  for (int y = 0; y < bgr.rows; ++y) {
+    const auto* p = bgr.ptr<cv::Vec3b>(y);
+    for (int x = 0; x < bgr.cols; x += 2) {
+      out[k++] = byte(luma(p[x]));
+      out[k++] = byte((u(p[x]) + u(p[x + 1])) / 2);
+      out[k++] = byte(luma(p[x + 1]));
+      out[k++] = byte((v(p[x]) + v(p[x + 1])) / 2);
     }
   }
   return out;

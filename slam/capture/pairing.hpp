@@ -25,12 +25,13 @@ class FramePairer {
   void add_depth(double t, T payload) { depth_.emplace_back(t, std::move(payload)); }
   void add_color(double t, T payload) { color_.emplace_back(t, std::move(payload)); }
 
-  // The next pair (depth, colour) with the colour frame's time, if one is decided.
+  // The next pair (depth, colour) with the colour frame's time, if one is decided. `final`:
+  // the streams ended, so no closer depth frame can come.
   struct Pair {
     double t_depth, t_color;
     T depth, color;
   };
-  std::optional<Pair> next() {
+  std::optional<Pair> next(bool final = false) {
     while (!color_.empty() && !depth_.empty()) {
       const double tc = color_.front().first;
       // Depth frames before the colour frame that a later depth frame is closer to are useless.
@@ -41,7 +42,7 @@ class FramePairer {
       }
       const double td = depth_.front().first;
       if (std::abs(td - tc) <= max_dt_) {
-        if (td < tc && depth_.size() < 2) return std::nullopt;  // a closer one may still come
+        if (td < tc && depth_.size() < 2 && !final) return std::nullopt;  // a closer one may come
         Pair p{td, tc, std::move(depth_.front().second), std::move(color_.front().second)};
         depth_.pop_front();
         color_.pop_front();
@@ -49,7 +50,7 @@ class FramePairer {
         return p;
       }
       if (td < tc) {
-        if (depth_.size() < 2) return std::nullopt;
+        if (depth_.size() < 2 && !final) return std::nullopt;
         depth_.pop_front();
         ++counters_.unpaired_depth;
       } else {

@@ -31,7 +31,8 @@ void write_formats(cv::FileStorage& fs, const std::vector<NodeFormat>& formats) 
   fs << "]";
 }
 
-std::uint32_t parse_fourcc(const std::string& s, const fs::path& file) {
+std::uint32_t parse_fourcc(std::string s, const fs::path& file) {
+  if (!s.empty() && s.size() < 4) s.resize(4, ' ');  // YAML drops the trailing space of "Z16 "
   if (s.size() != 4) throw Error("fourcc must have 4 characters: '" + s + "'", {.file = file.string(), .field = "fourcc"});
   return fourcc(s[0], s[1], s[2], s[3]);
 }
