@@ -42,6 +42,9 @@ int main(int argc, char** argv) {
   coloc::cli::add_handeye_verb(app, bench);
   coloc::cli::add_fuse_verb(app, bench);
   coloc::cli::add_register_verb(app);
+  coloc::cli::add_capture_verb(app, bench);
+  coloc::cli::add_record_verb(app);
+  coloc::cli::add_calibrate_verb(app);
 
   try {
     app.parse(argc, argv);

@@ -20,10 +20,14 @@ struct Detection {
 
 cv::Ptr<cv::aruco::Dictionary> dictionary_by_name(const std::string& name) {
   static const std::pair<const char*, int> kNames[] = {
-      {"DICT_4X4_50", cv::aruco::DICT_4X4_50},     {"DICT_4X4_250", cv::aruco::DICT_4X4_250},
-      {"DICT_5X5_250", cv::aruco::DICT_5X5_250},   {"DICT_6X6_50", cv::aruco::DICT_6X6_50},
-      {"DICT_6X6_250", cv::aruco::DICT_6X6_250},   {"DICT_6X6_1000", cv::aruco::DICT_6X6_1000},
-      {"DICT_7X7_250", cv::aruco::DICT_7X7_250},   {"DICT_ARUCO_ORIGINAL", cv::aruco::DICT_ARUCO_ORIGINAL}};
+      {"DICT_4X4_50", cv::aruco::DICT_4X4_50},
+      {"DICT_4X4_250", cv::aruco::DICT_4X4_250},
+      {"DICT_5X5_250", cv::aruco::DICT_5X5_250},
+      {"DICT_6X6_50", cv::aruco::DICT_6X6_50},
+      {"DICT_6X6_250", cv::aruco::DICT_6X6_250},
+      {"DICT_6X6_1000", cv::aruco::DICT_6X6_1000},
+      {"DICT_7X7_250", cv::aruco::DICT_7X7_250},
+      {"DICT_ARUCO_ORIGINAL", cv::aruco::DICT_ARUCO_ORIGINAL}};
   for (const auto& [n, id] : kNames)
     if (name == n) return cv::aruco::getPredefinedDictionary(id);
   throw Error("unknown dictionary '" + name + "'", {.field = "dictionary"});
@@ -39,11 +43,13 @@ std::optional<Detection> detect_chessboard(const cv::Mat& grey, const CalibrateO
                    {cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3});
   for (int r = 0; r < o.rows; ++r)
     for (int c = 0; c < o.cols; ++c)
-      d.object.emplace_back(static_cast<float>(c * o.square), static_cast<float>(r * o.square), 0.0f);
+      d.object.emplace_back(static_cast<float>(c * o.square), static_cast<float>(r * o.square),
+                            0.0f);
   return d;
 }
 
-std::optional<Detection> detect_charuco(const cv::Mat& grey, const cv::Ptr<cv::aruco::CharucoBoard>& board) {
+std::optional<Detection> detect_charuco(const cv::Mat& grey,
+                                        const cv::Ptr<cv::aruco::CharucoBoard>& board) {
   std::vector<std::vector<cv::Point2f>> markers;
   std::vector<int> ids;
   cv::aruco::detectMarkers(grey, board->dictionary, markers, ids);
@@ -70,8 +76,8 @@ void mark_same_views(const std::vector<cv::Mat>& rvecs, const std::vector<cv::Ma
       const double angle = cv::norm(rel_vec) * 180.0 / CV_PI;
       const double dist = cv::norm(tvecs[i] - tvecs[j]) / std::max(1e-9, cv::norm(tvecs[i]));
       if (angle < o.same_view_deg && dist < o.same_view_rel) {
-        reports[image_of[j]].note = "adds nothing: the same view as " +
-                                    reports[image_of[i]].path.filename().string();
+        reports[image_of[j]].note =
+            "adds nothing: the same view as " + reports[image_of[i]].path.filename().string();
         break;
       }
     }
@@ -99,7 +105,8 @@ CameraCalibration calibrate_camera(const std::vector<fs::path>& paths, const Cal
   cv::Ptr<cv::aruco::CharucoBoard> board;
   if (o.target == CalibrateOptions::Target::kCharuco)
     board = cv::aruco::CharucoBoard::create(o.cols, o.rows, static_cast<float>(o.square),
-                                            static_cast<float>(o.marker), dictionary_by_name(o.dictionary));
+                                            static_cast<float>(o.marker),
+                                            dictionary_by_name(o.dictionary));
   CameraCalibration result;
   std::vector<std::vector<cv::Point2f>> image_points;
   std::vector<std::vector<cv::Point3f>> object_points;
@@ -110,7 +117,8 @@ CameraCalibration calibrate_camera(const std::vector<fs::path>& paths, const Cal
     if (grey.empty()) throw Error("cannot read image", {.file = p.string()});
     if (size.area() > 0 && grey.size() != size)
       throw Error("image size " + std::to_string(grey.cols) + "x" + std::to_string(grey.rows) +
-                  " differs from the first image's", {.file = p.string()});
+                      " differs from the first image's",
+                  {.file = p.string()});
     size = grey.size();
     ImageReport report{.path = p};
     const auto d = board ? detect_charuco(grey, board) : detect_chessboard(grey, o);

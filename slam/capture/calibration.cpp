@@ -51,7 +51,9 @@ void check_table(std::span<const std::uint8_t> table, std::size_t layout_bytes, 
                 {.field = name, .offset = 12});
 }
 
-float f32(std::span<const std::uint8_t> t, std::size_t at) { return read_le<float>(t, at, "float"); }
+float f32(std::span<const std::uint8_t> t, std::size_t at) {
+  return read_le<float>(t, at, "float");
+}
 
 std::vector<std::uint8_t> with_header(std::vector<std::uint8_t> table, std::uint16_t type) {
   write_le<std::uint16_t>(table, 0, 0x0002);  // version 2.0, stored big-endian
@@ -65,8 +67,7 @@ std::vector<std::uint8_t> with_header(std::vector<std::uint8_t> table, std::uint
 }  // namespace
 
 std::vector<std::uint8_t> hw_monitor_command(std::uint32_t opcode, std::uint32_t p1,
-                                             std::uint32_t p2, std::uint32_t p3,
-                                             std::uint32_t p4) {
+                                             std::uint32_t p2, std::uint32_t p3, std::uint32_t p4) {
   std::vector<std::uint8_t> cmd(kHwMonitorBufferSize, 0);
   write_le<std::uint16_t>(cmd, 0, 20);  // bytes after the 4-byte prefix: opcode + 4 params
   write_le<std::uint16_t>(cmd, 2, kMagic);
@@ -179,10 +180,10 @@ DepthColorCalibration parse_calibration(std::span<const std::uint8_t> coefficien
   // Column-major, as the firmware's 3x3 matrices are.
   for (int col = 0; col < 3; ++col)
     for (int row = 0; row < 3; ++row)
-      r(row, col) = f32(rgb, kRgbRotationRectAt + 4 * (3 * col + row));
+      r(row, col) = f32(rgb, kRgbRotationRectAt + 4 * static_cast<std::size_t>(3 * col + row));
   Eigen::Vector3d t;
   for (int i = 0; i < 3; ++i)
-    t[i] = -1e-3 * f32(rgb, kRgbTranslationRectAt + 4 * i);  // mm, stored with opposite sign
+    t[i] = -1e-3 * f32(rgb, kRgbTranslationRectAt + 4 * static_cast<std::size_t>(i));  // mm, stored with opposite sign
   if (!r.allFinite() || std::abs(r.determinant() - 1.0) > 1e-3)
     throw Error("calibration table 32 (RGB): the depth-to-colour rotation is not a rotation",
                 {.field = "rotation_matrix_rect", .offset = kRgbRotationRectAt});
@@ -221,15 +222,13 @@ std::vector<std::uint8_t> build_rgb_table(const DepthColorCalibration& c) {
   for (std::size_t i = 0; i < 5; ++i)
     write_le<float>(t, kRgbDistortionAt + 4 * i, static_cast<float>(c.color_distortion[i]));
   write_le<std::uint16_t>(t, kRgbCalibSizeAt, static_cast<std::uint16_t>(c.color_calib_width));
-  write_le<std::uint16_t>(t, kRgbCalibSizeAt + 2,
-                          static_cast<std::uint16_t>(c.color_calib_height));
+  write_le<std::uint16_t>(t, kRgbCalibSizeAt + 2, static_cast<std::uint16_t>(c.color_calib_height));
   const Eigen::Matrix3d r = c.color_from_depth.rotation();
   for (int col = 0; col < 3; ++col)
     for (int row = 0; row < 3; ++row)
-      write_le<float>(t, kRgbRotationRectAt + 4 * (3 * col + row),
-                      static_cast<float>(r(row, col)));
+      write_le<float>(t, kRgbRotationRectAt + 4 * static_cast<std::size_t>(3 * col + row), static_cast<float>(r(row, col)));
   for (int i = 0; i < 3; ++i)
-    write_le<float>(t, kRgbTranslationRectAt + 4 * i,
+    write_le<float>(t, kRgbTranslationRectAt + 4 * static_cast<std::size_t>(i),
                     static_cast<float>(-1e3 * c.color_from_depth.translation()[i]));
   return with_header(std::move(t), kTableRgb);
 }
@@ -245,8 +244,9 @@ DepthColorCalibration nominal_d455_calibration() {
   c.color_calib_height = 800;
   c.color_normalized = {640.0 / 640.0, 640.0 / 400.0, 0.5 / 640.0, -1.5 / 400.0};
   c.color_distortion = {-0.055, 0.065, 0.0004, 0.0006, -0.021};
-  c.color_from_depth = SE3(SO3(Eigen::Quaterniond(Eigen::AngleAxisd(0.002, Eigen::Vector3d::UnitY()))),
-                           Eigen::Vector3d(-0.059, 0.0002, 0.0004));
+  c.color_from_depth =
+      SE3(SO3(Eigen::Quaterniond(Eigen::AngleAxisd(0.002, Eigen::Vector3d::UnitY()))),
+          Eigen::Vector3d(-0.059, 0.0002, 0.0004));
   return c;
 }
 
@@ -278,15 +278,21 @@ DepthColorCalibration load_calibration_file(const std::filesystem::path& path, i
   PinholeCamera depth = c.color_camera(depth_width, depth_height);  // registered: same camera
   depth.distortion = {};
   if (!fs["Depth.fx"].empty()) {
-    depth = {static_cast<int>(number("Depth.width")), static_cast<int>(number("Depth.height")),
-             number("Depth.fx"), number("Depth.fy"), number("Depth.cx"), number("Depth.cy"), {}};
+    depth = {static_cast<int>(number("Depth.width")),
+             static_cast<int>(number("Depth.height")),
+             number("Depth.fx"),
+             number("Depth.fy"),
+             number("Depth.cx"),
+             number("Depth.cy"),
+             {}};
   }
   c.depth_modes = {depth};
   cv::Mat m;
   fs["color_from_depth"] >> m;
   if (!m.empty()) {
     if (m.rows != 4 || m.cols != 4)
-      throw Error("color_from_depth must be a 4x4 matrix", {.file = path.string(), .field = "color_from_depth"});
+      throw Error("color_from_depth must be a 4x4 matrix",
+                  {.file = path.string(), .field = "color_from_depth"});
     m.convertTo(m, CV_64F);
     Eigen::Matrix4d pose;
     for (int r = 0; r < 4; ++r)

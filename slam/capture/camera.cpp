@@ -21,8 +21,7 @@ std::unique_ptr<NodeStream> open_metadata(DeviceSystem& system, const RealSenseD
                                           const DiscoveredNode& stream, const CameraOptions& o) {
   const DiscoveredNode* meta = device.metadata_of(stream);
   if (meta == nullptr) {
-    spdlog::warn("{}: no metadata node; kernel timestamps are used",
-                 stream.info.device.string());
+    spdlog::warn("{}: no metadata node; kernel timestamps are used", stream.info.device.string());
     return nullptr;
   }
   try {
@@ -36,7 +35,7 @@ std::unique_ptr<NodeStream> open_metadata(DeviceSystem& system, const RealSenseD
 
 }  // namespace
 
-struct RgbdCamera::Stream {
+struct RgbdCamera::StreamState {
   std::unique_ptr<NodeStream> video, meta;
   std::optional<RawFrame> pending_meta;  // metadata of a later frame, kept for it
   std::optional<double> kernel_minus_sensor;
@@ -58,7 +57,8 @@ void CameraOptions::check() const {
 void parse_mode(const std::string& text, CameraOptions& o) {
   static const std::regex kItem(R"((depth|color)=(\d+)x(\d+)@(\d+))");
   std::size_t consumed = 0;
-  for (auto it = std::sregex_iterator(text.begin(), text.end(), kItem); it != std::sregex_iterator(); ++it) {
+  for (auto it = std::sregex_iterator(text.begin(), text.end(), kItem);
+       it != std::sregex_iterator(); ++it) {
     const std::smatch& m = *it;
     StreamMode& mode = m[1] == "depth" ? o.depth : o.color;
     mode.width = std::stoi(m[2]);
@@ -79,7 +79,8 @@ RealSenseDevice find_camera(DeviceSystem& system, const std::string& device) {
     for (const DiscoveredNode& n : dev.nodes)
       if (n.info.device == device) {
         if (!usable)
-          throw Error(device + " belongs to a " + dev.model + " without both depth and colour nodes");
+          throw Error(device + " belongs to a " + dev.model +
+                      " without both depth and colour nodes");
         return dev;
       }
   }
@@ -104,7 +105,8 @@ DepthColorCalibration read_factory_calibration(VideoNode& node) {
     return parse_calibration(coefficients, table(kTableRgb));
   } catch (const Error& e) {
     throw Error("cannot read the factory calibration from " + node.path().string() + ": " +
-                e.what() + "\n  fallback: pass --calibration FILE (a camera YAML, e.g. from "
+                e.what() +
+                "\n  fallback: pass --calibration FILE (a camera YAML, e.g. from "
                 "`coloc calibrate`)");
   }
 }
@@ -127,27 +129,29 @@ RgbdCamera::RgbdCamera(DeviceSystem& system, const CameraOptions& options)
   }
   depth_camera_ = calibration_.depth_camera(options_.depth.width, options_.depth.height);
   color_camera_ = calibration_.color_camera(options_.color.width, options_.color.height);
-  registrar_ = std::make_unique<DepthRegistrar>(depth_camera_, color_camera_,
-                                                calibration_.color_from_depth);
-  depth_ = std::make_unique<Stream>();
-  color_ = std::make_unique<Stream>();
+  registrar_ =
+      std::make_unique<DepthRegistrar>(depth_camera_, color_camera_, calibration_.color_from_depth);
+  depth_ = std::make_unique<StreamState>();
+  color_ = std::make_unique<StreamState>();
   depth_->meta = open_metadata(system, device_, depth_node, options_);
   color_->meta = open_metadata(system, device_, color_node, options_);
   depth_->video = open_stream(system, depth_node, options_.depth, options_);
   color_->video = open_stream(system, color_node, options_.color, options_);
 }
 
-RgbdCamera::~RgbdCamera() { stop(); }
+RgbdCamera::~RgbdCamera() {
+  stop();
+}
 
 void RgbdCamera::stop() {
-  for (Stream* s : {depth_.get(), color_.get()}) {
+  for (StreamState* s : {depth_.get(), color_.get()}) {
     if (s == nullptr) continue;
     if (s->video) s->video->stop();
     if (s->meta) s->meta->stop();
   }
 }
 
-double RgbdCamera::frame_time(Stream& s, const RawFrame& f) {
+double RgbdCamera::frame_time(StreamState& s, const RawFrame& f) {
   const double kernel_s = static_cast<double>(f.kernel_ns) * 1e-9;
   if (!anchor_s_) anchor_s_ = kernel_s;
   if (!s.meta) return kernel_s;
@@ -182,8 +186,8 @@ RgbdFrame RgbdCamera::decode(const RawFrame& depth, const RawFrame& color, doubl
   out.timestamp = tc;
   out.depth_timestamp = td;
   out.sensor_clock = depth_->meta && color_->meta;
-  out.color = decode_color(color.bytes, options_.color.fourcc, options_.color.width,
-                           options_.color.height);
+  out.color =
+      decode_color(color.bytes, options_.color.fourcc, options_.color.width, options_.color.height);
   const cv::Mat raw = decode_z16(depth.bytes, options_.depth.width, options_.depth.height);
   out.depth_raw = registrar_->register_raw(raw, options_.depth_units_per_metre);
   return out;
@@ -202,7 +206,7 @@ std::optional<RgbdFrame> RgbdCamera::next() {
     }
     if (ended) return std::nullopt;
     const bool want_depth = pairer_.wants_depth();
-    Stream& s = want_depth ? *depth_ : *color_;
+    StreamState& s = want_depth ? *depth_ : *color_;
     std::optional<RawFrame> f = s.video->pop();
     if (!f) {  // that stream ended: pair what is left, then stop
       ended = true;
@@ -216,19 +220,23 @@ std::optional<RgbdFrame> RgbdCamera::next() {
   }
 }
 
+double RgbdCamera::frame_time_of_host(double host_s) const {
+  return depth_->kernel_minus_sensor ? host_s - *depth_->kernel_minus_sensor : host_s;
+}
+
 CaptureStats RgbdCamera::stats() const {
   return {depth_->video->counters(), color_->video->counters(), pairer_.counters(),
           metadata_missing_};
 }
 
 std::optional<std::string> RgbdCamera::end_reason() const {
-  for (const Stream* s : {depth_.get(), color_.get()})
+  for (const StreamState* s : {depth_.get(), color_.get()})
     if (auto e = s->video->error()) return e->first;
   return std::nullopt;
 }
 
 bool RgbdCamera::unplugged() const {
-  for (const Stream* s : {depth_.get(), color_.get()})
+  for (const StreamState* s : {depth_.get(), color_.get()})
     if (auto e = s->video->error(); e && e->second == ENODEV) return true;
   return false;
 }

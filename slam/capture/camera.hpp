@@ -39,8 +39,8 @@ void parse_mode(const std::string& text, CameraOptions& options);
 struct RgbdFrame {
   double timestamp = 0.0;  // seconds, of the colour frame (camera clock anchored at the host)
   double depth_timestamp = 0.0;
-  cv::Mat color;      // CV_8UC3 BGR
-  cv::Mat depth_raw;  // CV_16UC1 registered to colour, depth units (0 = none)
+  cv::Mat color;              // CV_8UC3 BGR
+  cv::Mat depth_raw;          // CV_16UC1 registered to colour, depth units (0 = none)
   bool sensor_clock = false;  // timestamps from the UVC metadata (else kernel timestamps)
 };
 
@@ -64,7 +64,12 @@ class RgbdCamera {
   std::optional<RgbdFrame> next();
   void stop();
 
+  // Statistics so far; call from the thread that calls next().
   CaptureStats stats() const;
+  // A host CLOCK_MONOTONIC time (seconds; V4L2 and iio timestamps) on the frames' clock, by the
+  // latest offset between the depth stream's kernel and sensor timestamps (unchanged without
+  // metadata). Call from the thread that calls next().
+  double frame_time_of_host(double host_s) const;
   // Why the camera ended by itself ("camera unplugged ..."), if it did.
   std::optional<std::string> end_reason() const;
   bool unplugged() const;
@@ -76,8 +81,8 @@ class RgbdCamera {
   const CameraOptions& options() const { return options_; }
 
  private:
-  struct Stream;
-  double frame_time(Stream& stream, const RawFrame& frame);
+  struct StreamState;
+  double frame_time(StreamState& stream, const RawFrame& frame);
   RgbdFrame decode(const RawFrame& depth, const RawFrame& color, double td, double tc);
 
   CameraOptions options_;
@@ -85,7 +90,7 @@ class RgbdCamera {
   DepthColorCalibration calibration_;
   PinholeCamera depth_camera_, color_camera_;
   std::unique_ptr<DepthRegistrar> registrar_;
-  std::unique_ptr<Stream> depth_, color_;
+  std::unique_ptr<StreamState> depth_, color_;
   FramePairer<RawFrame> pairer_;
   SensorClock sensor_clock_;
   std::optional<double> anchor_s_;  // host time of the first frame

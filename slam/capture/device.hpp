@@ -41,14 +41,14 @@ struct NodeInfo {
   int index = 0;                 // sysfs index: 0 for the stream node, 1 for its metadata node
   std::string usb_path;          // the USB device's sysfs folder (groups the nodes of a camera)
   std::uint16_t vendor = 0, product = 0;
-  std::string serial, speed;     // "5000" for USB 3
+  std::string serial, speed;  // "5000" for USB 3
 };
 
 // One dequeued buffer. `bytes` stays valid until the buffer is handed back by requeue().
 struct Buffer {
   std::span<const std::uint8_t> bytes;
-  std::uint32_t index = 0;      // to requeue
-  std::uint32_t sequence = 0;   // the driver's frame counter: gaps are frames it dropped
+  std::uint32_t index = 0;        // to requeue
+  std::uint32_t sequence = 0;     // the driver's frame counter: gaps are frames it dropped
   std::int64_t timestamp_ns = 0;  // kernel timestamp (CLOCK_MONOTONIC)
 };
 

@@ -13,8 +13,10 @@ StreamKind classify(const std::vector<NodeFormat>& formats) {
   bool depth = false, color = false, infrared = false, meta = false;
   for (const NodeFormat& f : formats) {
     depth = depth || f.fourcc == kFourccZ16;
-    color = color || f.fourcc == kFourccYuyv || f.fourcc == kFourccRgb24 || f.fourcc == kFourccBgr24;
-    infrared = infrared || f.fourcc == kFourccGrey || f.fourcc == kFourccY8i || f.fourcc == kFourccY12i;
+    color =
+        color || f.fourcc == kFourccYuyv || f.fourcc == kFourccRgb24 || f.fourcc == kFourccBgr24;
+    infrared =
+        infrared || f.fourcc == kFourccGrey || f.fourcc == kFourccY8i || f.fourcc == kFourccY12i;
     meta = meta || f.fourcc == kFourccUvcMeta;
   }
   if (depth) return StreamKind::kDepth;  // a depth node may offer infrared formats too
@@ -81,11 +83,12 @@ Discovery discover(DeviceSystem& system) {
       const std::string model = d4xx_model(info.product);
       char hex[16];
       std::snprintf(hex, sizeof(hex), "0x%04x", info.product);
-      d.devices.push_back({.model = model.empty() ? "unknown Intel camera (" + std::string(hex) + ")" : model,
-                           .product = info.product,
-                           .serial = info.serial,
-                           .usb_path = info.usb_path,
-                           .speed = info.speed});
+      d.devices.push_back(
+          {.model = model.empty() ? "unknown Intel camera (" + std::string(hex) + ")" : model,
+           .product = info.product,
+           .serial = info.serial,
+           .usb_path = info.usb_path,
+           .speed = info.speed});
     }
     d.devices[it->second].nodes.push_back(std::move(node));
   }

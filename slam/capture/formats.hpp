@@ -43,14 +43,14 @@ std::size_t frame_bytes(std::uint32_t code, int width, int height);
 cv::Mat decode_z16(std::span<const std::uint8_t> bytes, int width, int height, int stride = 0);
 // YUYV / RGB24 / BGR24 bytes -> CV_8UC3 BGR. Throws coloc::Error on a short buffer or another
 // format.
-cv::Mat decode_color(std::span<const std::uint8_t> bytes, std::uint32_t code, int width,
-                     int height, int stride = 0);
+cv::Mat decode_color(std::span<const std::uint8_t> bytes, std::uint32_t code, int width, int height,
+                     int stride = 0);
 // BGR -> YUYV bytes (what the camera sends), for replay descriptions and tests.
 std::vector<std::uint8_t> encode_yuyv(const cv::Mat& bgr);
 
 struct FrameMetadata {
-  std::uint64_t host_ns = 0;        // uvc_meta_buf.ns: host clock (CLOCK_MONOTONIC) at SOF
-  std::uint16_t usb_sof = 0;        // USB frame number
+  std::uint64_t host_ns = 0;         // uvc_meta_buf.ns: host clock (CLOCK_MONOTONIC) at SOF
+  std::uint16_t usb_sof = 0;         // USB frame number
   std::optional<std::uint32_t> pts;  // UVC presentation time stamp (device clock ticks)
   // Intel capture-timing block, when present.
   std::optional<std::uint32_t> frame_counter;

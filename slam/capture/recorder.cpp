@@ -34,7 +34,9 @@ void RecorderOptions::check() const {
 }
 
 Recorder::Recorder(fs::path dir, SettingsFileContent camera, RecorderOptions options)
-    : dir_(std::move(dir)), camera_(std::move(camera)), options_(options),
+    : dir_(std::move(dir)),
+      camera_(std::move(camera)),
+      options_(options),
       jobs_(options.queue_capacity) {
   options_.check();
   if (fs::exists(dir_ / "rgb.txt") || fs::exists(dir_ / "rgb.txt.partial"))
@@ -119,7 +121,8 @@ void Recorder::close() {
   for (const char* list : kLists) {
     std::error_code ec;
     fs::rename(dir_ / (std::string(list) + ".partial"), dir_ / list, ec);
-    if (ec) throw Error("cannot rename into place: " + ec.message(), {.file = (dir_ / list).string()});
+    if (ec)
+      throw Error("cannot rename into place: " + ec.message(), {.file = (dir_ / list).string()});
   }
   std::lock_guard lock(mutex_);
   if (!error_.empty()) throw Error(error_, {.file = dir_.string()});

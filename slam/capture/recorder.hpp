@@ -26,10 +26,10 @@ struct RecorderOptions {
 };
 
 struct RecorderStats {
-  std::size_t frames = 0;       // pairs queued
-  std::size_t written = 0;      // pairs whose both PNGs are on disk
+  std::size_t frames = 0;   // pairs queued
+  std::size_t written = 0;  // pairs whose both PNGs are on disk
   std::size_t imu_samples = 0;
-  std::uint64_t bytes = 0;      // PNG bytes written
+  std::uint64_t bytes = 0;  // PNG bytes written
 };
 
 class Recorder {

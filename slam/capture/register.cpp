@@ -67,9 +67,9 @@ cv::Mat DepthRegistrar::register_raw(const cv::Mat& depth_raw, double units_per_
       // Rounded to the nearest pixel centre; the +0.5 keeps truncation correct for >= 0 only.
       const float fu = fx * u + cx + 0.5f, fv = fy * v + cy + 0.5f;
       if (!(fu >= 0.0f && fv >= 0.0f)) continue;
-      const int cu = static_cast<int>(fu), cv_ = static_cast<int>(fv);
-      if (cu >= w || cv_ >= h) continue;
-      auto& dst = out.at<std::uint16_t>(cv_, cu);
+      const int col = static_cast<int>(fu), row_out = static_cast<int>(fv);
+      if (col >= w || row_out >= h) continue;
+      auto& dst = out.at<std::uint16_t>(row_out, col);
       const auto value = static_cast<std::uint16_t>(std::min(65535.0f, pz * units + 0.5f));
       if (dst == 0 || value < dst) dst = value;
     }

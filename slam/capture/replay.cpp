@@ -48,7 +48,8 @@ class ReplayVideoNode final : public VideoNode {
       throw DeviceError("end of the replay", ENODATA, path().string());
     const ReplayFrame& f = node_.frames[next_];
     if (all_->realtime) {
-      const auto due = started_ + std::chrono::nanoseconds(f.timestamp_ns - node_.frames[0].timestamp_ns);
+      const auto due =
+          started_ + std::chrono::nanoseconds(f.timestamp_ns - node_.frames[0].timestamp_ns);
       const auto limit = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
       if (due > limit) {
         std::this_thread::sleep_until(limit);
@@ -56,8 +57,10 @@ class ReplayVideoNode final : public VideoNode {
       }
       std::this_thread::sleep_until(due);
     }
-    return Buffer{.bytes = f.bytes, .index = static_cast<std::uint32_t>(next_++),
-                  .sequence = f.sequence, .timestamp_ns = f.timestamp_ns};
+    return Buffer{.bytes = f.bytes,
+                  .index = static_cast<std::uint32_t>(next_++),
+                  .sequence = f.sequence,
+                  .timestamp_ns = f.timestamp_ns};
   }
 
   void requeue(std::uint32_t) override {}
@@ -146,7 +149,8 @@ ReplayDescription d455_description(const DepthColorCalibration& calibration) {
   const std::string name = "Intel(R) RealSense(TM) Depth Camera 455";
   ReplayDescription d;
   ReplayNode depth{.info = d455_info(0, 0, name + "  Depth")};
-  depth.formats = {{kFourccZ16, {{848, 480, {5, 15, 30, 60, 90}}, {640, 480, {5, 15, 30, 60, 90}}}}};
+  depth.formats = {
+      {kFourccZ16, {{848, 480, {5, 15, 30, 60, 90}}, {640, 480, {5, 15, 30, 60, 90}}}}};
   depth.tables[kTableCoefficients] = build_coefficients_table(calibration);
   depth.tables[kTableRgb] = build_rgb_table(calibration);
   ReplayNode depth_meta{.info = d455_info(1, 1, name + "  Depth")};

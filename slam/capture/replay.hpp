@@ -12,9 +12,9 @@
 #include <map>
 #include <optional>
 
+#include "slam/capture/calibration.hpp"
 #include "slam/capture/device.hpp"
 #include "slam/capture/formats.hpp"
-#include "slam/capture/calibration.hpp"
 
 namespace coloc::capture {
 
@@ -29,9 +29,9 @@ struct ReplayNode {
   std::vector<NodeFormat> formats;
   std::optional<StreamMode> frames_mode;  // the mode the frames were recorded in
   std::vector<ReplayFrame> frames;
-  int open_errno = 0;                          // open() fails with it (EBUSY, EACCES, ...)
-  std::optional<std::size_t> unplug_after;     // frames served before ENODEV
-  int xu_errno = 0;                            // extension-unit queries fail with it
+  int open_errno = 0;                       // open() fails with it (EBUSY, EACCES, ...)
+  std::optional<std::size_t> unplug_after;  // frames served before ENODEV
+  int xu_errno = 0;                         // extension-unit queries fail with it
   std::map<std::uint16_t, std::vector<std::uint8_t>> tables;  // GETINTCAL answers by table id
 };
 

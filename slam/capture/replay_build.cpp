@@ -39,8 +39,7 @@ DepthColorCalibration calibration_for(const PinholeCamera& camera) {
 }
 
 ReplayDescription replay_from_sequence(const dataset::Sequence& sequence,
-                                       const PinholeCamera& camera,
-                                       const ReplayBuildOptions& o) {
+                                       const PinholeCamera& camera, const ReplayBuildOptions& o) {
   ReplayDescription d = d455_description(calibration_for(camera));
   d.realtime = o.realtime;
   ReplayNode& depth = d.nodes[0];
@@ -65,10 +64,11 @@ ReplayDescription replay_from_sequence(const dataset::Sequence& sequence,
     const double t = sequence.timestamp(i) - t0;
     const auto ns = static_cast<std::int64_t>(std::llround((100.0 + t) * 1e9));  // host clock
     const auto seq = static_cast<std::uint32_t>(i);
-    FrameMetadata m{.host_ns = static_cast<std::uint64_t>(ns),
-                    .frame_counter = seq,
-                    .sensor_timestamp_us = static_cast<std::uint32_t>(std::llround(t * 1e6) + 5000000),
-                    .exposure_us = 8000};
+    FrameMetadata m{
+        .host_ns = static_cast<std::uint64_t>(ns),
+        .frame_counter = seq,
+        .sensor_timestamp_us = static_cast<std::uint32_t>(std::llround(t * 1e6) + 5000000),
+        .exposure_us = 8000};
     depth.frames.push_back({z16_bytes(f.depth), seq, ns + 3000000});  // 3 ms transfer latency
     color.frames.push_back({encode_yuyv(f.color), seq, ns + 5000000});
     if (o.metadata) {

@@ -9,7 +9,7 @@
 namespace coloc::capture {
 
 struct ReplayBuildOptions {
-  std::size_t frames = 0;                  // 0: all
+  std::size_t frames = 0;  // 0: all
   double fps = 30.0;
   std::optional<std::size_t> unplug_after;  // the camera disappears after this many frames
   std::vector<std::uint32_t> kernel_drops;  // frame indices the "driver" drops (sequence gaps)

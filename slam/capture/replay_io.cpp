@@ -10,7 +10,8 @@ namespace {
 
 void write_bytes(const fs::path& path, std::span<const std::uint8_t> bytes) {
   std::ofstream out(path, std::ios::binary);
-  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  out.write(reinterpret_cast<const char*>(bytes.data()),
+            static_cast<std::streamsize>(bytes.size()));
   if (!out) throw Error("cannot write", {.file = path.string()});
 }
 
@@ -21,19 +22,26 @@ std::vector<std::uint8_t> read_bytes(const fs::path& path) {
 }
 
 void write_formats(cv::FileStorage& fs, const std::vector<NodeFormat>& formats) {
-  fs << "formats" << "[";
+  fs << "formats"
+     << "[";
   for (const NodeFormat& f : formats) {
-    fs << "{" << "fourcc" << fourcc_name(f.fourcc) << "sizes" << "[";
+    fs << "{"
+       << "fourcc" << fourcc_name(f.fourcc) << "sizes"
+       << "[";
     for (const auto& s : f.sizes)
-      fs << "{" << "width" << s.width << "height" << s.height << "fps" << s.fps << "}";
-    fs << "]" << "}";
+      fs << "{"
+         << "width" << s.width << "height" << s.height << "fps" << s.fps << "}";
+    fs << "]"
+       << "}";
   }
   fs << "]";
 }
 
 std::uint32_t parse_fourcc(std::string s, const fs::path& file) {
   if (!s.empty() && s.size() < 4) s.resize(4, ' ');  // YAML drops the trailing space of "Z16 "
-  if (s.size() != 4) throw Error("fourcc must have 4 characters: '" + s + "'", {.file = file.string(), .field = "fourcc"});
+  if (s.size() != 4)
+    throw Error("fourcc must have 4 characters: '" + s + "'",
+                {.file = file.string(), .field = "fourcc"});
   return fourcc(s[0], s[1], s[2], s[3]);
 }
 
@@ -43,7 +51,8 @@ std::vector<NodeFormat> read_formats(const cv::FileNode& node, const fs::path& f
     NodeFormat nf{.fourcc = parse_fourcc(static_cast<std::string>(f["fourcc"]), file)};
     for (const auto& s : f["sizes"]) {
       NodeFormat::Size size{static_cast<int>(s["width"]), static_cast<int>(s["height"]), {}};
-      for (const auto& r : s["fps"])  // element by element: OpenCV's vector reader trips -Wnull-dereference
+      for (const auto& r :
+           s["fps"])  // element by element: OpenCV's vector reader trips -Wnull-dereference
         size.fps.push_back(static_cast<double>(r));
       nf.sizes.push_back(size);
     }
@@ -53,30 +62,38 @@ std::vector<NodeFormat> read_formats(const cv::FileNode& node, const fs::path& f
 }
 
 void write_node(cv::FileStorage& fs, const ReplayNode& n, std::size_t k, const fs::path& dir) {
-  fs << "{" << "device" << n.info.device.string() << "name" << n.info.name << "index"
-     << n.info.index << "usb_path" << n.info.usb_path << "vendor" << int{n.info.vendor}
-     << "product" << int{n.info.product} << "serial" << n.info.serial << "speed" << n.info.speed
-     << "open_errno" << n.open_errno << "xu_errno" << n.xu_errno << "unplug_after"
+  fs << "{"
+     << "device" << n.info.device.string() << "name" << n.info.name << "index" << n.info.index
+     << "usb_path" << n.info.usb_path << "vendor" << int{n.info.vendor} << "product"
+     << int{n.info.product} << "serial" << n.info.serial << "speed" << n.info.speed << "open_errno"
+     << n.open_errno << "xu_errno" << n.xu_errno << "unplug_after"
      << (n.unplug_after ? static_cast<int>(*n.unplug_after) : -1);
   write_formats(fs, n.formats);
   if (n.frames_mode)
-    fs << "frames_mode" << "{" << "fourcc" << fourcc_name(n.frames_mode->fourcc) << "width"
-       << n.frames_mode->width << "height" << n.frames_mode->height << "fps"
-       << n.frames_mode->fps << "}";
-  fs << "frames" << "[";
+    fs << "frames_mode"
+       << "{"
+       << "fourcc" << fourcc_name(n.frames_mode->fourcc) << "width" << n.frames_mode->width
+       << "height" << n.frames_mode->height << "fps" << n.frames_mode->fps << "}";
+  fs << "frames"
+     << "[";
   for (std::size_t i = 0; i < n.frames.size(); ++i) {
     const std::string file = std::to_string(k) + "_" + std::to_string(i) + ".bin";
     write_bytes(dir / "frames" / file, n.frames[i].bytes);
-    fs << "{" << "file" << file << "sequence" << static_cast<int>(n.frames[i].sequence)
-       << "timestamp_ns" << std::to_string(n.frames[i].timestamp_ns) << "}";
+    fs << "{"
+       << "file" << file << "sequence" << static_cast<int>(n.frames[i].sequence) << "timestamp_ns"
+       << std::to_string(n.frames[i].timestamp_ns) << "}";
   }
-  fs << "]" << "tables" << "[";
+  fs << "]"
+     << "tables"
+     << "[";
   for (const auto& [id, bytes] : n.tables) {
     const std::string file = std::to_string(k) + "_table" + std::to_string(id) + ".bin";
     write_bytes(dir / "frames" / file, bytes);
-    fs << "{" << "id" << int{id} << "file" << file << "}";
+    fs << "{"
+       << "id" << int{id} << "file" << file << "}";
   }
-  fs << "]" << "}";
+  fs << "]"
+     << "}";
 }
 
 ReplayNode read_node(const cv::FileNode& n, const fs::path& dir, const fs::path& file) {
@@ -116,7 +133,8 @@ void save_replay(const ReplayDescription& d, const fs::path& dir) {
   const fs::path file = dir / "replay.yaml";
   cv::FileStorage fs(file.string(), cv::FileStorage::WRITE);
   if (!fs.isOpened()) throw Error("cannot write", {.file = file.string()});
-  fs << "realtime" << static_cast<int>(d.realtime) << "nodes" << "[";
+  fs << "realtime" << static_cast<int>(d.realtime) << "nodes"
+     << "[";
   for (std::size_t k = 0; k < d.nodes.size(); ++k)
     write_node(fs, d.nodes[k], k, dir);
   fs << "]";
@@ -134,9 +152,11 @@ ReplayDescription load_replay(const fs::path& dir) {
   } catch (const cv::Exception& e) {
     throw Error("malformed replay description: " + e.msg, {.file = file.string()});
   } catch (const std::invalid_argument&) {
-    throw Error("malformed number in replay description", {.file = file.string(), .field = "timestamp_ns"});
+    throw Error("malformed number in replay description",
+                {.file = file.string(), .field = "timestamp_ns"});
   }
-  if (d.nodes.empty()) throw Error("replay description without nodes", {.file = file.string(), .field = "nodes"});
+  if (d.nodes.empty())
+    throw Error("replay description without nodes", {.file = file.string(), .field = "nodes"});
   return d;
 }
 

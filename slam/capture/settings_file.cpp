@@ -1,5 +1,6 @@
 #include "slam/capture/settings_file.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -33,13 +34,15 @@ void write_settings_file(const fs::path& path, const SettingsFileContent& c) {
   };
   const PinholeCamera& k = c.camera;
   std::ostringstream o;
-  o << "%YAML:1.0\n" << c.comment << "\nFile.version: \"1.0\"\n\nCamera.type: \"PinHole\"\n\n"
-    << "Camera1.fx: " << num(k.fx) << "\nCamera1.fy: " << num(k.fy) << "\nCamera1.cx: "
-    << num(k.cx) << "\nCamera1.cy: " << num(k.cy) << "\n\nCamera1.k1: " << num(k.distortion[0])
+  o << "%YAML:1.0\n"
+    << c.comment << "\nFile.version: \"1.0\"\n\nCamera.type: \"PinHole\"\n\n"
+    << "Camera1.fx: " << num(k.fx) << "\nCamera1.fy: " << num(k.fy) << "\nCamera1.cx: " << num(k.cx)
+    << "\nCamera1.cy: " << num(k.cy) << "\n\nCamera1.k1: " << num(k.distortion[0])
     << "\nCamera1.k2: " << num(k.distortion[1]) << "\nCamera1.p1: " << num(k.distortion[2])
     << "\nCamera1.p2: " << num(k.distortion[3]) << "\nCamera1.k3: " << num(k.distortion[4])
-    << "\n\nCamera.width: " << k.width << "\nCamera.height: " << k.height << "\n\nCamera.fps: "
-    << static_cast<int>(c.fps + 0.5) << "\nCamera.RGB: " << (c.rgb ? 1 : 0) << "\n";
+    << "\n\nCamera.width: " << k.width << "\nCamera.height: " << k.height
+    << "\n\nCamera.fps: " << std::lround(c.fps) << "\nCamera.RGB: " << (c.rgb ? 1 : 0)
+    << "\n";
   if (c.depth_map_factor > 0)
     o << "\nStereo.ThDepth: 40.0\nStereo.b: " << num(c.baseline_m > 0 ? c.baseline_m : 0.05)
       << "\nRGBD.DepthMapFactor: " << num(c.depth_map_factor) << "\n";

@@ -11,10 +11,10 @@ namespace coloc::capture {
 struct SettingsFileContent {
   PinholeCamera camera;
   double fps = 30.0;
-  bool rgb = true;                  // Camera.RGB
-  double depth_map_factor = 0.0;    // RGBD.DepthMapFactor (0: no depth keys)
-  double baseline_m = 0.0;          // Stereo.b (with depth)
-  std::string comment;              // a "# ..." header saying where the numbers came from
+  bool rgb = true;                // Camera.RGB
+  double depth_map_factor = 0.0;  // RGBD.DepthMapFactor (0: no depth keys)
+  double baseline_m = 0.0;        // Stereo.b (with depth)
+  std::string comment;            // a "# ..." header saying where the numbers came from
 };
 
 // Writes `content` to `path` under a temporary name, renamed when complete. Throws coloc::Error

@@ -9,7 +9,9 @@ NodeStream::NodeStream(std::unique_ptr<VideoNode> node, unsigned buffers,
   thread_ = std::thread([this] { run(); });
 }
 
-NodeStream::~NodeStream() { stop(); }
+NodeStream::~NodeStream() {
+  stop();
+}
 
 void NodeStream::stop() {
   stop_ = true;

@@ -82,10 +82,12 @@ class KernelNode final : public VideoNode {
     v4l2_streamparm p{};
     p.type = type_;
     p.parm.capture.timeperframe.numerator = 1000;
-    p.parm.capture.timeperframe.denominator = static_cast<std::uint32_t>(std::lround(mode.fps * 1000));
+    p.parm.capture.timeperframe.denominator =
+        static_cast<std::uint32_t>(std::lround(mode.fps * 1000));
     if (xioctl(fd_, VIDIOC_S_PARM, &p) < 0) fail("cannot set " + describe(mode));
     const auto& tpf = p.parm.capture.timeperframe;
-    if (tpf.numerator == 0 || std::abs(static_cast<double>(tpf.denominator) / tpf.numerator - mode.fps) > 0.5)
+    if (tpf.numerator == 0 ||
+        std::abs(static_cast<double>(tpf.denominator) / tpf.numerator - mode.fps) > 0.5)
       throw DeviceError("the driver does not offer " + describe(mode), EINVAL, path_.string());
   }
 
@@ -116,7 +118,8 @@ class KernelNode final : public VideoNode {
     const int r = ::poll(&p, 1, timeout_ms);
     if (r < 0 && errno != EINTR) fail("poll failed");
     if (r <= 0) return std::nullopt;
-    if (p.revents & (POLLERR | POLLHUP)) throw DeviceError(explain_errno(ENODEV), ENODEV, path_.string());
+    if (p.revents & (POLLERR | POLLHUP))
+      throw DeviceError(explain_errno(ENODEV), ENODEV, path_.string());
     v4l2_buffer b{};
     b.type = type_;
     b.memory = V4L2_MEMORY_MMAP;
@@ -187,15 +190,18 @@ class KernelNode final : public VideoNode {
       v4l2_frmsizeenum s{};
       s.index = i;
       s.pixel_format = code;
-      if (xioctl(fd_, VIDIOC_ENUM_FRAMESIZES, &s) < 0 || s.type != V4L2_FRMSIZE_TYPE_DISCRETE) break;
-      NodeFormat::Size size{static_cast<int>(s.discrete.width), static_cast<int>(s.discrete.height), {}};
+      if (xioctl(fd_, VIDIOC_ENUM_FRAMESIZES, &s) < 0 || s.type != V4L2_FRMSIZE_TYPE_DISCRETE)
+        break;
+      NodeFormat::Size size{
+          static_cast<int>(s.discrete.width), static_cast<int>(s.discrete.height), {}};
       for (std::uint32_t k = 0;; ++k) {
         v4l2_frmivalenum iv{};
         iv.index = k;
         iv.pixel_format = code;
         iv.width = s.discrete.width;
         iv.height = s.discrete.height;
-        if (xioctl(fd_, VIDIOC_ENUM_FRAMEINTERVALS, &iv) < 0 || iv.type != V4L2_FRMIVAL_TYPE_DISCRETE)
+        if (xioctl(fd_, VIDIOC_ENUM_FRAMEINTERVALS, &iv) < 0 ||
+            iv.type != V4L2_FRMIVAL_TYPE_DISCRETE)
           break;
         if (iv.discrete.numerator > 0)
           size.fps.push_back(static_cast<double>(iv.discrete.denominator) / iv.discrete.numerator);

@@ -37,7 +37,10 @@ TEST(CaptureCalibrate, CharucoPhotosAndImagesWithoutABoard) {
   std::vector<fs::path> images = {dir / "img_00.jpg", dir / "img_01.jpg", dir / "img_02.jpg",
                                   dir / "img_03.jpg", dir / "singlemarkersoriginal.jpg"};
   CalibrateOptions o{.target = CalibrateOptions::Target::kCharuco,
-                     .cols = 5, .rows = 7, .square = 0.04, .marker = 0.02};
+                     .cols = 5,
+                     .rows = 7,
+                     .square = 0.04,
+                     .marker = 0.02};
   const CameraCalibration c = calibrate_camera(images, o);
   EXPECT_EQ(c.used(), 4u);
   EXPECT_FALSE(c.images[4].used);
@@ -51,7 +54,8 @@ TEST(CaptureCalibrate, CharucoPhotosAndImagesWithoutABoard) {
   images = {dir / "img_00.jpg", dir / "img_01.jpg", dir / "img_02.jpg", dir / "img_03.jpg",
             dir / "img_00.jpg"};
   const CameraCalibration d = calibrate_camera(images, o);
-  EXPECT_NE(d.images[4].note.find("same view as img_00.jpg"), std::string::npos) << d.images[4].note;
+  EXPECT_NE(d.images[4].note.find("same view as img_00.jpg"), std::string::npos)
+      << d.images[4].note;
   EXPECT_THROW(calibrate_camera({dir / "missing.jpg"}, o), Error);
 }
 

@@ -160,7 +160,8 @@ TEST(CaptureDevice, UnreadableCalibrationNamesTheFallback) {
 
 TEST(CaptureReplay, SavedDescriptionLoadsTheSame) {
   const testing::MemorySequence seq(3);
-  const ReplayDescription d = replay_from_sequence(seq, testing::test_camera(), {.unplug_after = 2});
+  const ReplayDescription d =
+      replay_from_sequence(seq, testing::test_camera(), {.unplug_after = 2});
   const fs::path dir = coloc::testing::temp_dir("capture_replay_io");
   save_replay(d, dir);
   const ReplayDescription back = load_replay(dir);

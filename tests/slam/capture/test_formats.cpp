@@ -45,8 +45,12 @@ TEST(CaptureFormats, YuyvRoundTripKeepsColours) {
 }
 
 TEST(CaptureFormats, UvcMetadataCarriesSensorTimestampAndCounter) {
-  FrameMetadata m{.host_ns = 123456789012ULL, .usb_sof = 77, .pts = 4242,
-                  .frame_counter = 99, .sensor_timestamp_us = 0xFFFFFF00u, .exposure_us = 8000};
+  FrameMetadata m{.host_ns = 123456789012ULL,
+                  .usb_sof = 77,
+                  .pts = 4242,
+                  .frame_counter = 99,
+                  .sensor_timestamp_us = 0xFFFFFF00u,
+                  .exposure_us = 8000};
   const auto bytes = encode_uvc_metadata(m);
   const FrameMetadata p = parse_uvc_metadata(bytes);
   EXPECT_EQ(p.host_ns, m.host_ns);
@@ -74,7 +78,7 @@ TEST(CaptureFormats, UvcMetadataCarriesSensorTimestampAndCounter) {
 TEST(CaptureFormats, SensorClockUnwrapsThe32BitCounter) {
   SensorClock c;
   EXPECT_DOUBLE_EQ(c.seconds(0xFFFF0000u), 0.0);
-  EXPECT_NEAR(c.seconds(0x00010000u), 0x20000 * 1e-6, 1e-12);  // across the wrap
+  EXPECT_NEAR(c.seconds(0x00010000u), 0x20000 * 1e-6, 1e-12);             // across the wrap
   EXPECT_NEAR(c.seconds(0x0000F000u), (0x20000 - 0x1000) * 1e-6, 1e-12);  // a small step back
 }
 
@@ -151,7 +155,7 @@ TEST(CaptureRegistration, IdentityKeepsDepthAndBaselineShiftsIt) {
   const cv::Mat moved = shifted.register_raw(depth, 1000.0);
   EXPECT_EQ(moved.at<std::uint16_t>(10, 12), 0);  // the hole moved with the wall
   EXPECT_EQ(moved.at<std::uint16_t>(10, 10), 2000);
-  EXPECT_EQ(moved.at<std::uint16_t>(20, 0), 0);   // nothing projects to the first columns
+  EXPECT_EQ(moved.at<std::uint16_t>(20, 0), 0);  // nothing projects to the first columns
   PinholeCamera distorted = cam;
   distorted.distortion[0] = 0.1;
   EXPECT_THROW(DepthRegistrar(distorted, cam, SE3()), Error);

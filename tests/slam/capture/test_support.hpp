@@ -7,7 +7,9 @@
 
 namespace coloc::capture::testing {
 
-inline PinholeCamera test_camera() { return {640, 480, 600.0, 600.0, 319.5, 239.5, {}}; }
+inline PinholeCamera test_camera() {
+  return {640, 480, 600.0, 600.0, 319.5, 239.5, {}};
+}
 
 class MemorySequence final : public dataset::Sequence {
  public:
@@ -22,13 +24,14 @@ class MemorySequence final : public dataset::Sequence {
     f.color = cv::Mat(480, 640, CV_8UC3);
     for (int y = 0; y < 480; ++y)
       for (int x = 0; x < 640; ++x)
-        f.color.at<cv::Vec3b>(y, x) = cv::Vec3b(static_cast<uchar>((x + 3 * i) % 256),
-                                                static_cast<uchar>(y % 256),
-                                                static_cast<uchar>(((x / 16 + y / 16) % 2) * 200));
+        f.color.at<cv::Vec3b>(y, x) =
+            cv::Vec3b(static_cast<uchar>((x + 3 * i) % 256), static_cast<uchar>(y % 256),
+                      static_cast<uchar>(((x / 16 + y / 16) % 2) * 200));
     f.depth = cv::Mat(480, 640, CV_32FC1);
     for (int y = 0; y < 480; ++y)
       for (int x = 0; x < 640; ++x)
-        f.depth.at<float>(y, x) = 1.0f + 0.002f * static_cast<float>(y) + 0.001f * static_cast<float>(i);
+        f.depth.at<float>(y, x) =
+            1.0f + 0.002f * static_cast<float>(y) + 0.001f * static_cast<float>(i);
     return f;
   }
   const Trajectory& ground_truth() const override { return gt_; }
