@@ -90,7 +90,7 @@ struct MakeReplayArgs {
   fs::path sequence, config, out;
   std::size_t frames = 0;
   int unplug_after = -1;
-  bool realtime = false;
+  bool unpaced = false;
 };
 
 void run_make_replay(const MakeReplayArgs& a) {
@@ -99,7 +99,7 @@ void run_make_replay(const MakeReplayArgs& a) {
   if (pinhole == nullptr || pinhole->width <= 0)
     throw Error("make-replay needs a pinhole camera with Camera.width/height",
                 {.file = in.config.string()});
-  capture::ReplayBuildOptions o{.frames = a.frames, .realtime = a.realtime};
+  capture::ReplayBuildOptions o{.frames = a.frames, .realtime = !a.unpaced};
   if (a.unplug_after >= 0) o.unplug_after = static_cast<std::size_t>(a.unplug_after);
   const capture::ReplayDescription d = capture::replay_from_sequence(*in.sequence, *pinhole, o);
   capture::save_replay(d, a.out);
@@ -147,7 +147,9 @@ void add_capture_verb(CLI::App& app, CLI::App& bench) {
   make->add_option("--out", mr->out, "Replay folder")->required();
   make->add_option("--frames", mr->frames, "Only the first N frames");
   make->add_option("--unplug-after", mr->unplug_after, "The camera disappears after N frames");
-  make->add_flag("--realtime", mr->realtime, "Serve frames at their timestamps' pace");
+  make->add_flag("--unpaced", mr->unpaced,
+                 "Serve frames as fast as they are taken (default: at their timestamps' pace, as "
+                 "a camera does; unpaced, a slow reader sees queue drops)");
   make->callback([mr] { run_make_replay(*mr); });
   devices->callback([devices, make, camera, json] {
     if (devices->got_subcommand(make)) return;

@@ -45,18 +45,28 @@ std::unique_ptr<capture::ImuStream> open_imu(const capture::RgbdCamera& camera, 
   }
 }
 
-void status_line(const capture::RgbdCamera& camera, const capture::Recorder& recorder,
-                 double elapsed) {
-  const capture::CaptureStats s = camera.stats();
-  const capture::RecorderStats r = recorder.stats();
-  std::fprintf(stderr,
-               "\r%6.1f s  depth %5.1f fps  colour %5.1f fps  pairs %zu  written %zu  drops: "
-               "driver %zu/%zu queue %zu/%zu unpaired %zu/%zu   ",
-               elapsed, s.depth.frames / std::max(elapsed, 1e-3),
-               s.color.frames / std::max(elapsed, 1e-3), s.pairing.pairs, r.written,
-               s.depth.kernel_drops, s.color.kernel_drops, s.depth.queue_drops, s.color.queue_drops,
-               s.pairing.unpaired_depth, s.pairing.unpaired_color);
-}
+// The live line: frame rates over the last interval, and every drop so far.
+class StatusLine {
+ public:
+  void print(const capture::RgbdCamera& camera, const capture::Recorder& recorder, double t) {
+    const capture::CaptureStats s = camera.stats();
+    const double dt = std::max(t - last_t_, 1e-3);
+    std::fprintf(stderr,
+                 "\r%6.1f s  depth %5.1f fps  colour %5.1f fps  pairs %zu  written %zu  drops: "
+                 "driver %zu/%zu queue %zu/%zu unpaired %zu/%zu   ",
+                 t, static_cast<double>(s.depth.frames - last_.depth.frames) / dt,
+                 static_cast<double>(s.color.frames - last_.color.frames) / dt, s.pairing.pairs,
+                 recorder.stats().written, s.depth.kernel_drops, s.color.kernel_drops,
+                 s.depth.queue_drops, s.color.queue_drops, s.pairing.unpaired_depth,
+                 s.pairing.unpaired_color);
+    last_ = s;
+    last_t_ = t;
+  }
+
+ private:
+  capture::CaptureStats last_;
+  double last_t_ = 0.0;
+};
 
 void run_record(const RecordArgs& a) {
   block_stop_signals();
@@ -79,7 +89,8 @@ void run_record(const RecordArgs& a) {
   std::unique_ptr<capture::ImuStream> imu = open_imu(camera, a.no_imu);
   const SignalStop signals(camera);
   std::optional<double> first;
-  double last_status = -1.0, elapsed = 0.0;
+  double last_status = 0.0, elapsed = 0.0;
+  StatusLine status;
   while (auto f = camera.next()) {
     if (!first) first = f->timestamp;
     elapsed = f->timestamp - *first;
@@ -91,17 +102,14 @@ void run_record(const RecordArgs& a) {
         recorder.add_imu(s);
       }
     if (!a.json && elapsed - last_status >= 1.0) {
-      status_line(camera, recorder, elapsed);
+      status.print(camera, recorder, elapsed);
       last_status = elapsed;
     }
   }
   camera.stop();
   if (imu) imu->stop();
   recorder.close();
-  if (!a.json) {
-    status_line(camera, recorder, elapsed);
-    std::fprintf(stderr, "\n");
-  }
+  if (!a.json && last_status > 0.0) std::fprintf(stderr, "\n");
   const capture::CaptureStats s = camera.stats();
   const auto reason = camera.end_reason();
   if (a.json) {

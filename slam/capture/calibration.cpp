@@ -1,6 +1,7 @@
 #include "slam/capture/calibration.hpp"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <opencv2/core.hpp>
@@ -146,8 +147,38 @@ PinholeCamera DepthColorCalibration::color_camera(int width, int height) const {
   c.fy = nfy * height / 2.0;
   c.cx = (1.0 + npx) * width / 2.0;
   c.cy = (1.0 + npy) * height / 2.0;
-  c.distortion = color_distortion;
+  c.distortion = color_distortion_inverse
+                     ? forward_from_inverse_brown(color_distortion, 1.0 / nfx, 1.0 / nfy)
+                     : color_distortion;
   return c;
+}
+
+std::array<double, 5> forward_from_inverse_brown(const std::array<double, 5>& k, double half_x,
+                                                 double half_y) {
+  if (std::all_of(k.begin(), k.end(), [](double v) { return v == 0.0; })) return k;
+  // Forward distortion is linear in its coefficients once the undistorted point is known: each
+  // distorted grid point gives two equations xd - xu = A(xu, yu) * [k1 k2 k3 p1 p2].
+  constexpr int kSteps = 21;
+  Eigen::MatrixXd a(2 * kSteps * kSteps, 5);
+  Eigen::VectorXd b(2 * kSteps * kSteps);
+  int row = 0;
+  for (int i = 0; i < kSteps; ++i) {
+    for (int j = 0; j < kSteps; ++j) {
+      const double xd = half_x * (2.0 * i / (kSteps - 1) - 1.0);
+      const double yd = half_y * (2.0 * j / (kSteps - 1) - 1.0);
+      const double rd = xd * xd + yd * yd;
+      const double f = 1.0 + rd * (k[0] + rd * (k[1] + rd * k[4]));
+      const double xu = xd * f + 2.0 * k[2] * xd * yd + k[3] * (rd + 2.0 * xd * xd);
+      const double yu = yd * f + 2.0 * k[3] * xd * yd + k[2] * (rd + 2.0 * yd * yd);
+      const double r2 = xu * xu + yu * yu;
+      a.row(row) << xu * r2, xu * r2 * r2, xu * r2 * r2 * r2, 2.0 * xu * yu, r2 + 2.0 * xu * xu;
+      b(row++) = xd - xu;
+      a.row(row) << yu * r2, yu * r2 * r2, yu * r2 * r2 * r2, r2 + 2.0 * yu * yu, 2.0 * xu * yu;
+      b(row++) = yd - yu;
+    }
+  }
+  const Eigen::VectorXd x = a.colPivHouseholderQr().solve(b);
+  return {x(0), x(1), x(3), x(4), x(2)};
 }
 
 DepthColorCalibration parse_calibration(std::span<const std::uint8_t> coefficients,
@@ -183,7 +214,8 @@ DepthColorCalibration parse_calibration(std::span<const std::uint8_t> coefficien
       r(row, col) = f32(rgb, kRgbRotationRectAt + 4 * static_cast<std::size_t>(3 * col + row));
   Eigen::Vector3d t;
   for (int i = 0; i < 3; ++i)
-    t[i] = -1e-3 * f32(rgb, kRgbTranslationRectAt + 4 * static_cast<std::size_t>(i));  // mm, stored with opposite sign
+    t[i] = -1e-3 * f32(rgb, kRgbTranslationRectAt +
+                                4 * static_cast<std::size_t>(i));  // mm, stored with opposite sign
   if (!r.allFinite() || std::abs(r.determinant() - 1.0) > 1e-3)
     throw Error("calibration table 32 (RGB): the depth-to-colour rotation is not a rotation",
                 {.field = "rotation_matrix_rect", .offset = kRgbRotationRectAt});
@@ -226,7 +258,8 @@ std::vector<std::uint8_t> build_rgb_table(const DepthColorCalibration& c) {
   const Eigen::Matrix3d r = c.color_from_depth.rotation();
   for (int col = 0; col < 3; ++col)
     for (int row = 0; row < 3; ++row)
-      write_le<float>(t, kRgbRotationRectAt + 4 * static_cast<std::size_t>(3 * col + row), static_cast<float>(r(row, col)));
+      write_le<float>(t, kRgbRotationRectAt + 4 * static_cast<std::size_t>(3 * col + row),
+                      static_cast<float>(r(row, col)));
   for (int i = 0; i < 3; ++i)
     write_le<float>(t, kRgbTranslationRectAt + 4 * static_cast<std::size_t>(i),
                     static_cast<float>(-1e3 * c.color_from_depth.translation()[i]));
@@ -275,6 +308,7 @@ DepthColorCalibration load_calibration_file(const std::filesystem::path& path, i
   const char* dist[5] = {"Camera1.k1", "Camera1.k2", "Camera1.p1", "Camera1.p2", "Camera1.k3"};
   for (int i = 0; i < 5; ++i)
     c.color_distortion[i] = number(dist[i], 0.0);
+  c.color_distortion_inverse = false;  // OpenCV / ORB-SLAM coefficients distort
   PinholeCamera depth = c.color_camera(depth_width, depth_height);  // registered: same camera
   depth.distortion = {};
   if (!fs["Depth.fx"].empty()) {

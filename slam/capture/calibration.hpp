@@ -67,7 +67,11 @@ struct DepthColorCalibration {
   std::vector<PinholeCamera> depth_modes;
   // Colour intrinsics at the calibration resolution, normalized as in the table.
   std::array<double, 4> color_normalized{};  // fx, fy, ppx, ppy over half width / height
-  std::array<double, 5> color_distortion{};  // k1 k2 p1 p2 k3
+  // k1 k2 p1 p2 k3. The factory tables' coefficients undistort (librealsense calls the model
+  // inverse Brown-Conrady); color_camera() turns them into the forward (OpenCV, ORB-SLAM)
+  // coefficients by a least-squares fit. A --calibration file's coefficients are forward.
+  std::array<double, 5> color_distortion{};
+  bool color_distortion_inverse = true;
   int color_calib_width = 0, color_calib_height = 0;
   SE3 color_from_depth;  // maps depth-camera points (metres) into the colour camera frame
 
@@ -86,6 +90,11 @@ DepthColorCalibration parse_calibration(std::span<const std::uint8_t> coefficien
 // tests use it to give the capture code the bytes a camera would.
 std::vector<std::uint8_t> build_coefficients_table(const DepthColorCalibration& calibration);
 std::vector<std::uint8_t> build_rgb_table(const DepthColorCalibration& calibration);
+
+// Forward Brown-Conrady coefficients equivalent to inverse ones (which map distorted
+// normalized coordinates to undistorted ones) over |x| <= half_x, |y| <= half_y.
+std::array<double, 5> forward_from_inverse_brown(const std::array<double, 5>& inverse,
+                                                 double half_x, double half_y);
 
 // A D455-like calibration (nominal values, 95 mm baseline), for replay devices and tests.
 DepthColorCalibration nominal_d455_calibration();

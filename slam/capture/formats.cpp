@@ -47,7 +47,9 @@ std::size_t frame_bytes(std::uint32_t code, int width, int height) {
 
 cv::Mat decode_z16(std::span<const std::uint8_t> bytes, int width, int height, int stride) {
   const std::size_t row = static_cast<std::size_t>(stride > 0 ? stride : width * 2);
-  check_size(bytes, row * static_cast<std::size_t>(height - 1) + static_cast<std::size_t>(width) * 2, "Z16");
+  check_size(bytes,
+             row * static_cast<std::size_t>(height - 1) + static_cast<std::size_t>(width) * 2,
+             "Z16");
   cv::Mat out(height, width, CV_16UC1);
   for (int y = 0; y < height; ++y)
     std::memcpy(out.ptr<std::uint16_t>(y), bytes.data() + row * static_cast<std::size_t>(y),
@@ -61,7 +63,8 @@ cv::Mat decode_color(std::span<const std::uint8_t> bytes, std::uint32_t code, in
   if (code != kFourccYuyv && code != kFourccRgb24 && code != kFourccBgr24)
     throw Error("colour format " + fourcc_name(code) + " is not supported (YUYV, RGB3, BGR3)");
   const std::size_t row = static_cast<std::size_t>(stride > 0 ? stride : width * bpp);
-  check_size(bytes, row * static_cast<std::size_t>(height - 1) + static_cast<std::size_t>(width * bpp),
+  check_size(bytes,
+             row * static_cast<std::size_t>(height - 1) + static_cast<std::size_t>(width * bpp),
              fourcc_name(code).c_str());
   // OpenCV only reads the buffer: the const_cast makes a header, never a write.
   const cv::Mat in(height, width, bpp == 2 ? CV_8UC2 : CV_8UC3,

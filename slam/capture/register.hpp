@@ -26,10 +26,12 @@ class DepthRegistrar {
   cv::Mat register_raw(const cv::Mat& depth_raw, double units_per_metre) const;
 
  private:
+  void project_row(const std::uint16_t* raw, int y, float units, std::int32_t* target,
+                   std::uint16_t* value) const;
+
   PinholeCamera depth_, color_;
   std::vector<float> ray_x_, ray_y_;  // undistorted depth rays (z = 1), per pixel
   float r_[9], t_[3];
-  bool color_distorted_ = false;
 };
 
 }  // namespace coloc::capture

@@ -34,7 +34,7 @@ DepthColorCalibration calibration_for(const PinholeCamera& camera) {
   c.color_normalized = {camera.fx / (camera.width / 2.0), camera.fy / (camera.height / 2.0),
                         camera.cx / (camera.width / 2.0) - 1.0,
                         camera.cy / (camera.height / 2.0) - 1.0};
-  c.color_distortion = {};
+  c.color_distortion = {};  // the frames' colour images are taken as undistorted
   return c;
 }
 

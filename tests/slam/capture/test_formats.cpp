@@ -107,6 +107,24 @@ TEST(CaptureCalibration, TablesRoundTripWithChecksums) {
   EXPECT_LT((p.color_from_depth.rotation() - c.color_from_depth.rotation()).norm(), 1e-6);
 }
 
+TEST(CaptureCalibration, InverseColourDistortionBecomesForward) {
+  // The tables' coefficients undistort; the camera handed to SLAM must distort (OpenCV's model).
+  const DepthColorCalibration c = nominal_d455_calibration();
+  const PinholeCamera cam = c.color_camera(1280, 800);
+  const auto& k = c.color_distortion;
+  for (const Eigen::Vector2d& xu :
+       {Eigen::Vector2d(0.6, 0.4), Eigen::Vector2d(-0.8, 0.5), Eigen::Vector2d(0.1, -0.55)}) {
+    const Eigen::Vector2d xd = cam.distort(xu);
+    const double rd = xd.squaredNorm();
+    const double f = 1.0 + rd * (k[0] + rd * (k[1] + rd * k[4]));
+    const Eigen::Vector2d back(
+        xd.x() * f + 2 * k[2] * xd.x() * xd.y() + k[3] * (rd + 2 * xd.x() * xd.x()),
+        xd.y() * f + 2 * k[3] * xd.x() * xd.y() + k[2] * (rd + 2 * xd.y() * xd.y()));
+    EXPECT_LT((back - xu).norm() * cam.fx, 0.05) << xu.transpose();  // pixels
+  }
+  EXPECT_NEAR(cam.distortion[0], 0.055, 0.01);  // about the negated inverse coefficient
+}
+
 TEST(CaptureCalibration, DamagedOrUnknownTablesNameTheFallback) {
   const DepthColorCalibration c = nominal_d455_calibration();
   auto coefficients = build_coefficients_table(c);
