@@ -15,7 +15,7 @@ std::vector<std::uint8_t> synthetic_z16(int w, int h, int seed) {
   cv::RNG rng(static_cast<std::uint64_t>(seed));
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
-      double z = x < w / 2 ? 1.5 + 2.5 * x / w : 3.0 - 1.0 * (x - w / 2) / w;
+      double z = x < w / 2 ? 1.5 + 2.5 * x / w : 3.0 - (x - w / 2.0) / w;
       if (y > h * 2 / 3) z = 1.0 + 0.5 * (h - y) / h * 6;
       auto mm =
           static_cast<std::uint16_t>(rng.uniform(0.0, 1.0) < 0.05 ? 0 : z * 1000 + (seed % 7));

@@ -3,7 +3,7 @@
 // DeviceSystem the caller gives), its factory calibration read over the hardware monitor (or
 // `calibration_file`), depth and colour configured and streamed by one thread per node (and
 // one per metadata node), frames paired by time, decoded, and depth registered to colour.
-// next() runs on the caller's thread; stop() may be called from any thread.
+// next() runs on the caller's thread; stop() may be called from any thread, and by several.
 #include <atomic>
 #include <filesystem>
 #include <memory>

@@ -14,6 +14,7 @@ NodeStream::~NodeStream() {
 }
 
 void NodeStream::stop() {
+  std::lock_guard lock(stop_mutex_);
   stop_ = true;
   if (thread_.joinable()) thread_.join();
   node_->stop();

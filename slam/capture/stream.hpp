@@ -43,6 +43,7 @@ class NodeStream {
   std::optional<RawFrame> pop_for(int timeout_ms) {
     return queue_.pop_for(std::chrono::milliseconds(timeout_ms));
   }
+  // Thread-safe: a second caller waits until the first has stopped the stream.
   void stop();
   StreamCounters counters() const;
   // Why the stream ended by itself (the DeviceError's message and errno), if it did.
@@ -55,6 +56,7 @@ class NodeStream {
   std::unique_ptr<VideoNode> node_;
   BoundedQueue<RawFrame> queue_;
   std::atomic<bool> stop_{false};
+  std::mutex stop_mutex_;     // one stop() joins the thread; another waits for it
   mutable std::mutex mutex_;  // guards counters_ and error_
   StreamCounters counters_;
   std::optional<std::pair<std::string, int>> error_;

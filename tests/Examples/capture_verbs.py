@@ -11,9 +11,11 @@ import argparse
 import json
 import os
 import pathlib
+import signal
 import subprocess
 import sys
 import tempfile
+import time
 
 sys.path.insert(0, next(str(p / "testing") for p in pathlib.Path(__file__).resolve().parents
                         if p.name == "tests"))
@@ -62,6 +64,19 @@ def main():
         m = json.loads(run([coloc, "map", "--sequence", rec, "--trajectory",
                             os.path.join(tmp, "rec.tum"), "--no-global-ba", "--json"]).stdout)
         assert m["tracked"] >= 30, m
+
+        # SIGTERM (as Ctrl-C's SIGINT) ends the recording cleanly, everything written.
+        rec_term = os.path.join(tmp, "rec_term")
+        proc = subprocess.Popen([coloc, "record", "--camera", "replay:" + replay, "--out", rec_term,
+                                 "--mode", "depth=640x480@30,color=640x480@30", "--json"],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        time.sleep(1.5)
+        proc.send_signal(signal.SIGTERM)
+        out, err = proc.communicate(timeout=60)
+        assert proc.returncode == 0, (proc.returncode, err)
+        r = json.loads(out)
+        assert len(lines(os.path.join(rec_term, "rgb.txt"))) == r["pairs"], r
+        assert len(os.listdir(os.path.join(rec_term, "depth"))) == r["pairs"], r
 
         cut = os.path.join(tmp, "replay_cut")
         run([coloc, "devices", "make-replay", "--sequence", tum, "--config", config, "--out", cut,
