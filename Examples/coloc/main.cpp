@@ -44,6 +44,9 @@ int main(int argc, char** argv) {
   coloc::cli::add_register_verb(app);
   coloc::cli::add_session_verb(app, bench);
   coloc::cli::add_view_verb(app, bench);
+  coloc::cli::add_capture_verb(app, bench);
+  coloc::cli::add_record_verb(app);
+  coloc::cli::add_calibrate_verb(app);
 
   try {
     app.parse(argc, argv);

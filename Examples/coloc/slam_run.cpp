@@ -28,6 +28,14 @@ std::optional<eval::AteResult> ate_of(const dataset::Sequence& sequence, const T
 RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& settings,
                    const slam::bow::Vocabulary& vocabulary, const RunOptions& run,
                    const std::function<void(const slam::system::System&)>& finished) {
+  const auto frames = dataset::frames_of(sequence);
+  return run_slam(*frames, &sequence, settings, vocabulary, run, finished);
+}
+
+RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
+                   const settings::Settings& settings, const slam::bow::Vocabulary& vocabulary,
+                   const RunOptions& run,
+                   const std::function<void(const slam::system::System&)>& finished) {
   slam::system::SystemOptions options;
   options.tracking.wait_for_sink = run.sequential;
   options.loop.enabled = run.loop;
@@ -47,40 +55,40 @@ RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& 
     }
   } detach{run.on_stop};
   if (run.on_start) run.on_start(slam);
-  Progress progress("slam", sequence.size());
+  Progress progress("slam", frames.remaining());
   RunResult r;
-  for (std::size_t i = 0; i < sequence.size(); ++i) {
-    progress.set(i + 1);
-    dataset::Frame frame;
+  std::size_t tracked = 0, unusable = 0;
+  while (auto frame = frames.next()) {
+    progress.advance();
     try {
-      frame = sequence.frame(i);
+      slam.track(dataset::to_camera_order(frame->color, settings.rgb_order), frame->depth,
+                 frame->timestamp);
+      ++tracked;
     } catch (const Error& e) {
-      // One unreadable image must not cost the whole session: skip it, say which, go on.
-      spdlog::warn("frame {} skipped: {}", i, e.what());
-      ++r.skipped_frames;
-      continue;
-    }
-    try {
-      slam.track(dataset::to_camera_order(frame.color, settings.rgb_order), frame.depth,
-                 frame.timestamp);
-    } catch (const Error& e) {
-      // Images that do not fit the camera (wrong size, depth of another size): same as above.
-      spdlog::warn("frame {} skipped ({}, {}): {}", i, frame.color_path.string(),
-                   frame.depth_path.string(), e.what());
-      ++r.skipped_frames;
+      // Images that do not fit the camera (wrong size, depth of another size) cost one frame,
+      // named, not the whole session (unreadable ones are skipped by the source).
+      spdlog::warn("frame {} skipped ({}, {}): {}", frame->index, frame->color_path.string(),
+                   frame->depth_path.string(), e.what());
+      ++unusable;
     }
   }
   progress.finish();
-  if (r.skipped_frames == sequence.size())
-    throw Error("no frame of the sequence could be read or used (see the warnings)");
+  r.skipped_frames = frames.skipped() + unusable;
+  if (tracked == 0)
+    throw Error(r.skipped_frames > 0
+                    ? "no frame of the sequence could be read or used (see the warnings)"
+                    : "no frame came from the camera");
   slam.shutdown();
-  r.ate_online = ate_of(sequence, slam.trajectory());
+  auto ate_of_run = [&](const Trajectory& t) {
+    return truth ? ate_of(*truth, t) : std::optional<eval::AteResult>();
+  };
+  r.ate_online = ate_of_run(slam.trajectory());
   if (run.global_ba) r.global_ba = slam.optimize_map();
   r.summary = slam.summary();
   r.trajectory = slam.trajectory();
   r.keyframes = slam.keyframe_trajectory();
-  r.ate = ate_of(sequence, r.trajectory);
-  r.ate_keyframes = ate_of(sequence, r.keyframes);
+  r.ate = ate_of_run(r.trajectory);
+  r.ate_keyframes = ate_of_run(r.keyframes);
   if (finished) finished(slam);
   return r;
 }

@@ -9,6 +9,7 @@
 
 #include "slam/bow/vocabulary.hpp"
 #include "slam/core/trajectory.hpp"
+#include "slam/dataset/frame_source.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/eval/trajectory_error.hpp"
 #include "slam/mapping/global_ba.hpp"
@@ -43,6 +44,12 @@ struct RunResult {
 // `finished` (optional) sees the System once the run and its global BA are done (to save it).
 RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& settings,
                    const slam::bow::Vocabulary& vocabulary, const RunOptions& options,
+                   const std::function<void(const slam::system::System&)>& finished = {});
+// The same over frames one after the other (a live camera: `coloc map --camera`); the ATE
+// figures exist when `truth` (the sequence with ground truth) is given.
+RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
+                   const settings::Settings& settings, const slam::bow::Vocabulary& vocabulary,
+                   const RunOptions& options,
                    const std::function<void(const slam::system::System&)>& finished = {});
 
 }  // namespace coloc::cli

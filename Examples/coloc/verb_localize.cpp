@@ -18,6 +18,7 @@
 #include <sstream>
 #include <thread>
 
+#include "Examples/coloc/camera_source.hpp"
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
 #include "Examples/coloc/verbs.hpp"
@@ -55,6 +56,10 @@ struct LocalizeArgs {
   std::size_t frames = 0;  // 0 = to the end
   int repeat = 1;          // replay the frames this often (memory over long sessions)
   double linger = 0.0;     // seconds to keep answering /coloc/get_pose after the last frame
+  std::string camera;      // live input instead of --sequence (auto, /dev/videoN, replay:DIR)
+  fs::path calibration;
+  std::string mode;
+  double seconds = 0.0;
   // bench
   ViewArgs view;  // --view: live in the browser
   int runs = 1;
@@ -96,7 +101,8 @@ struct LocalizeInputs {
   slam::bow::Vocabulary vocabulary;
   std::unique_ptr<slam::localize::LocalizationMap> map;
   settings::Settings settings;
-  std::unique_ptr<dataset::Sequence> sequence;
+  std::unique_ptr<dataset::Sequence> sequence;  // null with --camera
+  std::optional<LiveInput> live;
 };
 
 // --config, else the settings the map was built with (saved in its metadata), else the file
@@ -110,8 +116,16 @@ settings::Settings choose_settings(const LocalizeArgs& args,
 }
 
 LocalizeInputs load_inputs(const LocalizeArgs& args) {
-  LocalizeInputs in{load_vocabulary(args.vocabulary), nullptr, {}, nullptr};
+  LocalizeInputs in{load_vocabulary(args.vocabulary), nullptr, {}, nullptr, std::nullopt};
   in.map = slam::localize::load_localization_map(args.map, in.vocabulary);
+  if (!args.camera.empty()) {
+    // The live camera's own calibration (or --config) describes its frames, not the map's.
+    in.live = open_live_input(args.camera, args.calibration, args.mode, args.config,
+                              fs::temp_directory_path() /
+                                  ("coloc_localize_camera_" + std::to_string(getpid()) + ".yaml"));
+    in.settings = in.live->settings;
+    return in;
+  }
   in.settings = choose_settings(args, *in.map);
   in.sequence = open_sequence_for(args.sequence, in.settings);
   if (args.start >= in.sequence->size())
@@ -217,13 +231,15 @@ Trajectory in_ground_truth_frame(Trajectory t, const fs::path& gt_from_map) {
 void print_summary(const LocalizeArgs& args, const LocalizeInputs& in,
                    const slam::localize::LocalizerStats& s, const SessionTotals& totals,
                    const fusion::PoseServer& server, const char* published_name) {
-  const dataset::Sequence& sequence = *in.sequence;
   const double localized = std::max<double>(1.0, static_cast<double>(s.localized));
-  const auto aligned = ate(sequence, totals.trajectory, eval::Alignment::kSE3);
-  // Without alignment: in the map's frame, or moved by a known (not fitted) transform into the
-  // ground truth's frame (a twin map: the mapped walk's scan_from_sequence_start.txt).
-  const auto unaligned = ate(sequence, in_ground_truth_frame(totals.trajectory, args.gt_from_map),
-                             eval::Alignment::kNone);
+  std::optional<eval::AteResult> aligned, unaligned;
+  if (in.sequence) {  // a live camera has no ground truth
+    aligned = ate(*in.sequence, totals.trajectory, eval::Alignment::kSE3);
+    // Without alignment: in the map's frame, or moved by a known (not fitted) transform into the
+    // ground truth's frame (a twin map: the mapped walk's scan_from_sequence_start.txt).
+    unaligned = ate(*in.sequence, in_ground_truth_frame(totals.trajectory, args.gt_from_map),
+                    eval::Alignment::kNone);
+  }
   const fusion::OscStats osc_stats = server.stats();
   const std::uint64_t bad_packets = osc_stats.oversized + osc_stats.malformed +
                                     osc_stats.unknown_address + osc_stats.wrong_types +
@@ -278,10 +294,11 @@ void run_localize(const LocalizeArgs& args) {
   std::optional<AtomicFile> probe;
   if (!args.trajectory.empty()) probe.emplace(args.trajectory);
   probe.reset();
+  if (args.sequence.empty() == args.camera.empty())
+    throw CLI::ValidationError(
+        "give one of --sequence DIR or --camera auto|/dev/videoN|replay:DIR");
+  if (!args.camera.empty()) block_stop_signals();
   LocalizeInputs in = load_inputs(args);
-  const dataset::Sequence& sequence = *in.sequence;
-  const std::size_t end =
-      args.frames == 0 ? sequence.size() : std::min(sequence.size(), args.start + args.frames);
 
   std::optional<fusion::PoseServer> server;
   server.emplace(server_options(args));
@@ -307,36 +324,48 @@ void run_localize(const LocalizeArgs& args) {
   SessionTotals totals;
   std::int32_t sequence_number = 0;
   SE3 last_pose;
-  replay(
-      args, sequence, end, totals,
-      [&](const dataset::Frame& frame, double time, bool first_replay) {
-        const cv::Mat image = dataset::to_camera_order(frame.color, in.settings.rgb_order);
-        LocalizationResult r;
-        try {
-          r = localizer.localize(image, frame.depth, time);
-        } catch (const Error& e) {
-          // A frame that does not fit the camera is skipped and named, as unreadable ones are.
-          spdlog::warn("frame {} skipped ({}): {}", frame.index, frame.color_path.string(),
-                       e.what());
-          return;
-        }
-        if (view)
-          view->offer(image, in.settings.rgb_order, frame_index, time,
-                      static_cast<slam::system::ObservedState>(r.state), r.world_from_cam,
-                      r.inliers, r.total_ms, localizer.last_frame());
-        ++frame_index;
-        if (r.state == LocalizationState::kLost) {
-          server->set_latest(fusion::PoseMessage::from_pose(time, sequence_number, 0, last_pose));
-          return;
-        }
-        last_pose = r.world_from_cam * cam_from_published;
-        totals.inliers_sum += r.inliers;
-        totals.rms_sum += r.reprojection_rms_px;
-        server->publish(fusion::PoseMessage::from_pose(
-            time, sequence_number++, static_cast<std::int32_t>(r.state), last_pose));
-        totals.published += args.publish.size();
-        if (first_replay) totals.trajectory.push_back({time, r.world_from_cam});
-      });
+  auto sink = [&](const dataset::Frame& frame, double time, bool first_replay) {
+    const cv::Mat image = dataset::to_camera_order(frame.color, in.settings.rgb_order);
+    LocalizationResult r;
+    try {
+      r = localizer.localize(image, frame.depth, time);
+    } catch (const Error& e) {
+      // A frame that does not fit the camera is skipped and named, as unreadable ones are.
+      spdlog::warn("frame {} skipped ({}): {}", frame.index, frame.color_path.string(),
+                   e.what());
+      return;
+    }
+    if (view)
+      view->offer(image, in.settings.rgb_order, frame_index, time,
+                  static_cast<slam::system::ObservedState>(r.state), r.world_from_cam, r.inliers,
+                  r.total_ms, localizer.last_frame());
+    ++frame_index;
+    if (r.state == LocalizationState::kLost) {
+      server->set_latest(fusion::PoseMessage::from_pose(time, sequence_number, 0, last_pose));
+      return;
+    }
+    last_pose = r.world_from_cam * cam_from_published;
+    totals.inliers_sum += r.inliers;
+    totals.rms_sum += r.reprojection_rms_px;
+    server->publish(fusion::PoseMessage::from_pose(time, sequence_number++,
+                                                   static_cast<std::int32_t>(r.state), last_pose));
+    totals.published += args.publish.size();
+    if (first_replay) totals.trajectory.push_back({time, r.world_from_cam});
+  };
+  if (in.live) {
+    const SignalStop signals(*in.live->camera);
+    const auto frames = live_frames(*in.live->camera, args.seconds);
+    while (auto f = frames->next())
+      sink(*f, f->timestamp, true);
+    in.live->camera->stop();
+    if (in.live->camera->unplugged())
+      spdlog::warn("the camera was lost: {}", in.live->camera->end_reason().value_or(""));
+  } else {
+    const dataset::Sequence& sequence = *in.sequence;
+    const std::size_t end =
+        args.frames == 0 ? sequence.size() : std::min(sequence.size(), args.start + args.frames);
+    replay(args, sequence, end, totals, sink);
+  }
   if (args.linger > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(args.linger));
   server->stop();
   if (!args.trajectory.empty() && !totals.trajectory.empty())
@@ -451,8 +480,14 @@ void add_localize_verb(CLI::App& app, CLI::App& bench) {
   cmd->add_option("--map", args->map, "Map file (coloc map --save)")
       ->required()
       ->check(CLI::ExistingFile);
+  cmd->add_option("--camera", args->camera,
+                  "Live RealSense instead of --sequence: auto, /dev/videoN or replay:DIR");
+  cmd->add_option("--calibration", args->calibration,
+                  "With --camera: camera YAML instead of the factory calibration")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--mode", args->mode, "With --camera: depth=WxH@FPS,color=WxH@FPS");
+  cmd->add_option("--seconds", args->seconds, "With --camera: stop after this long (else Ctrl-C)");
   cmd->add_option("--sequence", args->sequence, "Sequence folder (TUM, 7-Scenes, twin)")
-      ->required()
       ->check(CLI::ExistingDirectory);
   cmd->add_option("--config", args->config,
                   "Camera settings YAML (default: the settings saved in the map)");

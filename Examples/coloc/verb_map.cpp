@@ -13,6 +13,7 @@
 #include <optional>
 #include <sstream>
 
+#include "Examples/coloc/camera_source.hpp"
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/row_progress.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
@@ -41,6 +42,10 @@ struct MapArgs {
   fs::path save;       // map file (slam/mapdb), written after the run
   fs::path load;       // map file to continue
   std::string frames;  // "A:B": only these frames of the sequence
+  std::string camera;  // live input instead of --sequence (auto, /dev/videoN, replay:DIR)
+  fs::path calibration;
+  std::string mode;
+  double seconds = 0.0;
   bool sequential = false;
   bool no_global_ba = false;
   bool no_loop = false;
@@ -79,8 +84,47 @@ MapInputs load_inputs(const MapArgs& args) {
   return in;
 }
 
+// --camera: frames from the live camera, through the same FrameSource as a sequence's.
+RunResult run_live(const MapArgs& args, const RunOptions& run,
+                   const std::function<void(const slam::system::System&)>& finished) {
+  block_stop_signals();
+  LiveInput live = open_live_input(args.camera, args.calibration, args.mode, args.config,
+                                   fs::path(args.trajectory.string() + ".camera.yaml"));
+  const slam::bow::Vocabulary vocabulary = load_vocabulary(args.vocabulary);
+  const SignalStop signals(*live.camera);
+  const auto frames = live_frames(*live.camera, args.seconds);
+  RunResult r = run_slam(*frames, nullptr, live.settings, vocabulary, run, finished);
+  live.camera->stop();
+  if (live.camera->unplugged())
+    spdlog::warn("the camera was lost: {}; the map holds what came before",
+                 live.camera->end_reason().value_or(""));
+  return r;
+}
+
 void run_map(const MapArgs& given) {
   MapArgs args = given;
+  if (args.sequence.empty() == args.camera.empty())
+    throw CLI::ValidationError(
+        "give one of --sequence DIR or --camera auto|/dev/videoN|replay:DIR");
+  if (!args.camera.empty()) {
+    if (!args.save.empty()) slam::mapdb::AtomicFile probe(args.save);
+    const RunResult r =
+        run_live(args, {.global_ba = !args.no_global_ba, .loop = !args.no_loop, .load = args.load},
+                 [&](const slam::system::System& slam) {
+                   if (!args.save.empty()) save_finished_map(slam, args.save, args.json);
+                 });
+    write_tum_trajectory(args.trajectory, r.trajectory);
+    if (!args.keyframes.empty()) write_tum_trajectory(args.keyframes, r.keyframes);
+    if (args.json)
+      print_json({{"frames", r.summary.frames},
+                  {"tracked", r.summary.tracked},
+                  {"keyframes", r.summary.keyframes},
+                  {"map_points", r.summary.points},
+                  {"loops", r.summary.loop.loops.size()}});
+    else
+      std::cout << r.summary.describe() << "\ntrajectory: " << args.trajectory.string() << "\n";
+    return;
+  }
   const MapInputs in = load_inputs(args);
   // ORB-SLAM3's System.LoadAtlasFromFile / SaveAtlasToFile when the command line names none.
   if (args.load.empty()) args.load = in.slam.settings.load_map;
@@ -209,9 +253,14 @@ void add_map_verb(CLI::App& app, CLI::App& bench) {
   auto args = std::make_shared<MapArgs>();
   CLI::App* map = app.add_subcommand(
       "map", "RGB-D SLAM over a sequence (TUM, 7-Scenes): trajectory in TUM format");
-  map->add_option("--sequence", args->sequence, "Sequence folder")
-      ->required()
-      ->check(CLI::ExistingDirectory);
+  map->add_option("--sequence", args->sequence, "Sequence folder")->check(CLI::ExistingDirectory);
+  map->add_option("--camera", args->camera,
+                  "Live RealSense instead of --sequence: auto, /dev/videoN or replay:DIR");
+  map->add_option("--calibration", args->calibration,
+                  "With --camera: camera YAML instead of the factory calibration")
+      ->check(CLI::ExistingFile);
+  map->add_option("--mode", args->mode, "With --camera: depth=WxH@FPS,color=WxH@FPS");
+  map->add_option("--seconds", args->seconds, "With --camera: stop after this long (else Ctrl-C)");
   map->add_option("--config", args->config,
                   "Camera settings YAML (default: shipped file for the format)");
   map->add_option("--vocabulary", args->vocabulary,

@@ -34,6 +34,12 @@ void add_fuse_verb(CLI::App& app, CLI::App& bench);
 // `coloc session ...` and `coloc bench session` (verb_session.cpp, verb_session_bench.cpp).
 void add_session_verb(CLI::App& app, CLI::App& bench);
 void add_session_bench(CLI::App& bench);
+// `coloc devices`, `coloc devices make-replay`, `coloc bench capture` (verb_capture.cpp).
+void add_capture_verb(CLI::App& app, CLI::App& bench);
+// `coloc record` (verb_record.cpp).
+void add_record_verb(CLI::App& app);
+// `coloc calibrate` (verb_calibrate.cpp).
+void add_calibrate_verb(CLI::App& app);
 // `coloc register` (verb_register.cpp).
 void add_register_verb(CLI::App& app);
 // `coloc view` and `coloc bench view` (verb_view.cpp, verb_view_bench.cpp).

@@ -2,6 +2,7 @@
 // A bounded blocking FIFO joining two pipeline stages (Basalt's habit): push() blocks while the
 // queue is full, pop() blocks while it is empty, close() wakes everyone; after close() push()
 // refuses and pop() drains what is left, then returns nothing. Thread-safe.
+#include <chrono>
 #include <condition_variable>
 #include <cstddef>
 #include <deque>
@@ -29,6 +30,19 @@ class BoundedQueue {
   std::optional<T> pop() {
     std::unique_lock lock(mutex_);
     not_empty_.wait(lock, [&] { return closed_ || !items_.empty(); });
+    if (items_.empty()) return std::nullopt;
+    T item = std::move(items_.front());
+    items_.pop_front();
+    not_full_.notify_one();
+    return item;
+  }
+
+  // As pop(), waiting at most `timeout`: nothing also when the time ran out.
+  template <typename Rep, typename Period>
+  std::optional<T> pop_for(std::chrono::duration<Rep, Period> timeout) {
+    std::unique_lock lock(mutex_);
+    if (!not_empty_.wait_for(lock, timeout, [&] { return closed_ || !items_.empty(); }))
+      return std::nullopt;
     if (items_.empty()) return std::nullopt;
     T item = std::move(items_.front());
     items_.pop_front();
