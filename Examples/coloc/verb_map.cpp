@@ -107,7 +107,10 @@ void run_map(const MapArgs& given) {
     throw CLI::ValidationError(
         "give one of --sequence DIR or --camera auto|/dev/videoN|replay:DIR");
   if (!args.camera.empty()) {
-    if (!args.save.empty()) slam::mapdb::AtomicFile probe(args.save);
+    // Unwritable destinations are errors before the camera starts, not after the recording.
+    if (!args.save.empty()) const AtomicFile probe(args.save);
+    { const AtomicFile probe(args.trajectory); }
+    if (!args.keyframes.empty()) const AtomicFile probe(args.keyframes);
     const RunResult r =
         run_live(args, {.global_ba = !args.no_global_ba, .loop = !args.no_loop, .load = args.load},
                  [&](const slam::system::System& slam) {
