@@ -12,14 +12,6 @@
 namespace coloc::cli {
 namespace {
 
-sigset_t stop_signals() {
-  sigset_t set;
-  sigemptyset(&set);
-  sigaddset(&set, SIGINT);
-  sigaddset(&set, SIGTERM);
-  return set;
-}
-
 class TimedFrames final : public dataset::FrameSource {
  public:
   TimedFrames(capture::RgbdCamera& camera, double seconds) : live_(camera), seconds_(seconds) {}
@@ -44,11 +36,6 @@ CameraSource open_camera_source(const std::string& spec) {
   if (spec.rfind(prefix, 0) == 0)
     return {capture::replay_system(capture::load_replay(spec.substr(prefix.size()))), "auto"};
   return {capture::kernel_system(), spec.empty() ? "auto" : spec};
-}
-
-void block_stop_signals() {
-  const sigset_t set = stop_signals();
-  pthread_sigmask(SIG_BLOCK, &set, nullptr);
 }
 
 SignalStop::SignalStop(capture::RgbdCamera& camera) {

@@ -12,6 +12,7 @@
 #include <string>
 #include <thread>
 
+#include "Examples/coloc/stop_signals.hpp"
 #include "slam/capture/camera.hpp"
 #include "slam/capture/device.hpp"
 #include "slam/dataset/frame_source.hpp"
@@ -25,9 +26,6 @@ struct CameraSource {
 };
 
 CameraSource open_camera_source(const std::string& spec);
-
-// Blocks SIGINT and SIGTERM in this thread and every thread started after it (call first).
-void block_stop_signals();
 
 // Waits for SIGINT/SIGTERM (blocked by block_stop_signals) and stops the camera; ends when
 // destroyed. Signals are taken by sigtimedwait: no handler, no global state.

@@ -74,29 +74,6 @@ void wait_for_page(const slam::view::ViewServer& server, double seconds) {
     spdlog::warn("no page after {} s: starting anyway", seconds);
 }
 
-namespace {
-
-sigset_t stop_signals() {
-  sigset_t s;
-  sigemptyset(&s);
-  sigaddset(&s, SIGINT);
-  sigaddset(&s, SIGTERM);
-  return s;
-}
-
-}  // namespace
-
-void block_stop_signals() {
-  const sigset_t s = stop_signals();
-  pthread_sigmask(SIG_BLOCK, &s, nullptr);
-  // A shell starts background jobs with SIGINT ignored, and an ignored signal is discarded even
-  // while blocked; with the default disposition it stays pending for sigwait.
-  struct sigaction default_action {};
-  default_action.sa_handler = SIG_DFL;
-  sigaction(SIGINT, &default_action, nullptr);
-  sigaction(SIGTERM, &default_action, nullptr);
-}
-
 void wait_for_signal(double seconds) {
   const sigset_t s = stop_signals();
   // Unblocked threads would take the signal with its default action (exit): the waiting thread

@@ -10,6 +10,7 @@
 #include <optional>
 #include <string>
 
+#include "Examples/coloc/stop_signals.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/map/map.hpp"
 #include "slam/system/system.hpp"
@@ -110,9 +111,6 @@ void linger(const slam::view::ViewServer& server, const slam::view::LiveFeedStat
 // Waits until a page is connected or `seconds` passed (logs what it waits for).
 void wait_for_page(const slam::view::ViewServer& server, double seconds);
 
-// Blocks SIGINT/SIGTERM in this thread (threads started afterwards inherit it) so that
-// wait_for_signal() takes them synchronously.
-void block_stop_signals();
 // Waits for SIGINT/SIGTERM, at most `seconds` (< 0: no limit).
 void wait_for_signal(double seconds);
 
