@@ -223,7 +223,7 @@ SE3 feed(const MultiUserOptions& o, const Member& m, int k, int i, Session& sess
                             noisy(vr_from_world * truth.head, rng, m.model.position_noise,
                                   m.model.rotation_noise)),
                     t, out);
-  const SE3 head = out.back().pose.pose();
+  SE3 head = out.back().pose.pose();  // returned: not const, so it moves
   const bool scored = t >= 2.0;
   if (scored) {
     totals.head_position[k].add(translation_distance(head, truth.head));
@@ -336,7 +336,7 @@ MultiUserReport simulate_multi_user(const MultiUserOptions& o) {
     run_trial(o, trial, totals);
   }
   // The stability table uses the first trial's two calibrations again (same seeds).
-  std::mt19937 rng(o.seed * 7919u);
+  std::mt19937 rng(static_cast<std::mt19937::result_type>(o.seed * 7919u));
   const SE3 world_from_camera =
       walk_pose(o.walk, 0.0) *
       SE3(Eigen::Quaterniond(Eigen::AngleAxisd(-std::numbers::pi / 2, Eigen::Vector3d::UnitY())),
