@@ -115,18 +115,8 @@ StabilityRow locked_stability(const std::vector<LogRecord>& log, const SessionCo
     va.push_back(m.registration.vr_from_device);
     vb.push_back(m.registration.camera_from_marker);  // here: vr_b_from_device_b
   }
-  const he::Dispersion d =
-      he::locked_controller_stability(va, vb, he::read_calibration(pa->calibration).vr_from_camera,
-                                      he::read_calibration(pb->calibration).vr_from_camera);
-  StabilityRow row;
-  row.rotation_mean = Eigen::AngleAxisd(d.mean.quaternion()).angle();
-  row.rotation_mean_abs = d.rotation_mean_abs;
-  row.rotation_rms = d.rotation_rms;
-  row.translation_mean = d.mean.translation().norm();
-  row.translation_mean_abs = d.translation_mean_abs;
-  row.translation_rms = d.translation_rms;
-  row.poses = va.size();
-  return row;
+  return stability_row(va, vb, he::read_calibration(pa->calibration).vr_from_camera,
+                       he::read_calibration(pb->calibration).vr_from_camera);
 }
 
 }  // namespace coloc::fusion::session

@@ -66,4 +66,20 @@ Matrix6d vr_from_camera_covariance(std::span<const he::Registration> regs,
   return jacobian * x_covariance * jacobian.transpose() + spread / n;
 }
 
+StabilityRow stability_row(const std::vector<SE3>& a, const std::vector<SE3>& b,
+                           const SE3& vr_a_from_camera, const SE3& vr_b_from_camera) {
+  StabilityRow row;
+  if (a.empty()) return row;
+  const he::Dispersion d =
+      he::locked_controller_stability(a, b, vr_a_from_camera, vr_b_from_camera);
+  row.rotation_mean = Eigen::AngleAxisd(d.mean.quaternion()).angle();
+  row.rotation_mean_abs = d.rotation_mean_abs;
+  row.rotation_rms = d.rotation_rms;
+  row.translation_mean = d.mean.translation().norm();
+  row.translation_mean_abs = d.translation_mean_abs;
+  row.translation_rms = d.translation_rms;
+  row.poses = a.size();
+  return row;
+}
+
 }  // namespace coloc::fusion::session

@@ -81,6 +81,12 @@ struct StabilityRow {
   std::size_t poses = 0;
 };
 
+// An et al.'s Table 2 row for two locked controllers: their poses vr_a_from_controller_a and
+// vr_b_from_controller_b at matched times, through the two systems' calibrations
+// (registration::handeye::locked_controller_stability). Empty poses give an empty row.
+StabilityRow stability_row(const std::vector<SE3>& a, const std::vector<SE3>& b,
+                           const SE3& vr_a_from_camera, const SE3& vr_b_from_camera);
+
 struct MultiUserReport {
   std::vector<UserError> users;  // per participant, over all trials
   std::vector<PairError> pairs;  // per pair, over all trials

@@ -303,18 +303,7 @@ StabilityRow stability_of(const Totals& totals, const SE3& vr_a_from_camera,
     a.push_back(totals.locked_a[i].pose);
     b.push_back(totals.locked_b[i].pose);
   }
-  StabilityRow row;
-  if (a.empty()) return row;
-  const he::Dispersion d =
-      he::locked_controller_stability(a, b, vr_a_from_camera, vr_b_from_camera);
-  row.rotation_mean = Eigen::AngleAxisd(d.mean.quaternion()).angle();
-  row.rotation_mean_abs = d.rotation_mean_abs;
-  row.rotation_rms = d.rotation_rms;
-  row.translation_mean = d.mean.translation().norm();
-  row.translation_mean_abs = d.translation_mean_abs;
-  row.translation_rms = d.translation_rms;
-  row.poses = a.size();
-  return row;
+  return stability_row(a, b, vr_a_from_camera, vr_b_from_camera);
 }
 
 }  // namespace
