@@ -6,14 +6,16 @@ saved (default): a twin room is mapped and saved; `coloc view MAP --markers --se
 it; the page must show the map's keyframe count, the markers SLAM saw and the scan's, draw the
 scene, and show a keyframe's image with its keypoints when the keyframe is clicked in the 3-D
 view. Then the bad inputs: a busy port and a damaged map are clear errors (exit 1).
---live: `coloc map` on the 37-frame TUM clip with --view; the page must see the pose advance;
-the browser then closes mid-run and the run must finish as without it.
+--live: `coloc map --view` on a 6 s twin room (181 frames: the 37-frame TUM clip maps in about a
+second, which a loaded 2-core machine's browser cannot sample before the run ends); the page must
+see the pose advance; the browser then closes mid-run and the run must finish as without it.
 
 A screenshot of the page is kept (--artefacts DIR, default the working directory). Exit 0 on
-success, 1 on failure, 77 when the data, chromium or playwright-core are missing.
+success, 1 on failure, 77 when node, chromium or playwright-core are missing.
 """
 import argparse
 import json
+import math
 import os
 import re
 import shutil
@@ -70,20 +72,16 @@ def marker_yaml(truth, path):
 
 def saved_map_test(coloc, tmp, artefacts):
     ok = True
-    twin = os.path.join(tmp, "room")
-    g = run([coloc, "twin", "generate", "--preset", "room", "--seed", "1", "--seconds", "6",
-             "--no-scan", "--out", twin])
-    if g.returncode != 0:
-        print("twin failed:", g.stderr[-2000:])
+    seq = room_twin(coloc, tmp)
+    if seq is None:
         return False
-    seq = os.path.join(twin, "sequence")
     db = os.path.join(tmp, "room.db")
     m = run([coloc, "map", "--sequence", seq, "--config", os.path.join(seq, "camera.yaml"),
              "--trajectory", os.path.join(tmp, "t.txt"), "--save", db, "--json"])
     if m.returncode != 0:
         print("map failed:", m.stderr[-2000:])
         return False
-    scan_markers = marker_yaml(os.path.join(twin, "groundtruth", "markers.txt"),
+    scan_markers = marker_yaml(os.path.join(os.path.dirname(seq), "groundtruth", "markers.txt"),
                                os.path.join(tmp, "markers.yaml"))
     # Registered to the scan's (true) markers: the view then shows both marker sets in one
     # frame, and the registration's residuals.
@@ -144,9 +142,22 @@ def saved_map_test(coloc, tmp, artefacts):
     return ok
 
 
-def live_test(coloc, data, tmp, artefacts):
+def room_twin(coloc, tmp):
+    """A 6 s twin room without a scan; its sequence folder, or None (the reason is printed)."""
+    twin = os.path.join(tmp, "room")
+    g = run([coloc, "twin", "generate", "--preset", "room", "--seed", "1", "--seconds", "6",
+             "--no-scan", "--out", twin])
+    if g.returncode != 0:
+        print("twin failed:", g.stderr[-2000:])
+        return None
+    return os.path.join(twin, "sequence")
+
+
+def live_test(coloc, tmp, artefacts):
     ok = True
-    seq = os.path.join(data, "tum_fr1_xyz_37f")
+    seq = room_twin(coloc, tmp)
+    if seq is None:
+        return False
     traj = os.path.join(tmp, "live.txt")
     # A port in use: the run goes on without a viewer.
     with socket.socket() as s:
@@ -156,7 +167,7 @@ def live_test(coloc, data, tmp, artefacts):
         r = run([coloc, "map", "--sequence", seq, "--trajectory", traj, "--view", "--view-port",
                  str(busy), "--json"])
     ok &= check("busy port: the run goes on", r.returncode == 0 and "viewer not started" in r.stderr
-                and json.loads(r.stdout)["frames"] > 30, r.stderr[-300:])
+                and json.loads(r.stdout)["frames"] > 150, r.stderr[-300:])
     reference_frames = json.loads(r.stdout)["frames"]
 
     # Sequential mapping and 30 pushed frames/s: the page has time to see the camera move.
@@ -184,9 +195,13 @@ def live_test(coloc, data, tmp, artefacts):
         idx = [f["index"] for f in frames]
         ok &= check("frame index advances", idx == sorted(idx) and len(set(idx)) == len(idx), idx)
         poses = [f["pose"] for f in frames if f["pose"]]
+        # The twin's walk starts with a pan on the spot: the camera turns before it travels.
         moved = max((sum((a - b) ** 2 for a, b in zip(q[4:], poses[0][4:])) ** 0.5
                      for q in poses), default=0.0)
-        ok &= check("pose advances", len(poses) >= 2 and moved > 0.005, moved)
+        turned = max((2 * math.degrees(math.acos(min(1.0, abs(sum(
+            a * b for a, b in zip(q[:4], poses[0][:4])))))) for q in poses), default=0.0)
+        ok &= check("pose advances", len(poses) >= 2 and (moved > 0.005 or turned > 2.0),
+                    "%.3f m, %.1f deg" % (moved, turned))
         ok &= check("keypoints pushed", max(f["keypoints"] for f in frames) > 100)
         ok &= check("no page errors", not p["page_errors"], p["page_errors"])
         ok &= check("the growing map on the page", p["counts"]["keyframes"] > 0, p["counts"])
@@ -204,19 +219,16 @@ def main():
     ap.add_argument("--live", action="store_true")
     ap.add_argument("--artefacts", default=os.getcwd())
     a = ap.parse_args()
-    data = coloc_testing.shared_data_dir()
     chromium = os.environ.get("CHROMIUM", "/usr/bin/chromium")
     for need, what in ((shutil.which("node"), "node (Debian package nodejs)"),
                        (os.path.exists(chromium), "chromium (scripts/install_deps.sh)"),
-                       (PLAYWRIGHT.exists(), "playwright-core (scripts/install_web)"),
-                       (not a.live or os.path.isdir(os.path.join(data, "tum_fr1_xyz_37f")),
-                        "tum_fr1_xyz_37f in " + data)):
+                       (PLAYWRIGHT.exists(), "playwright-core (scripts/install_web)")):
         if not need:
             print("skipped: missing", what)
             return 77
     os.makedirs(a.artefacts, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
-        ok = live_test(a.coloc, data, tmp, a.artefacts) if a.live else \
+        ok = live_test(a.coloc, tmp, a.artefacts) if a.live else \
             saved_map_test(a.coloc, tmp, a.artefacts)
     return 0 if ok else 1
 
