@@ -28,7 +28,8 @@ std::optional<eval::AteResult> ate_of(const dataset::Sequence& sequence, const T
 RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& settings,
                    const slam::bow::Vocabulary& vocabulary, const RunOptions& run,
                    const std::function<void(const slam::system::System&)>& finished) {
-  const auto frames = dataset::frames_of(sequence);
+  auto frames = dataset::frames_of(sequence);
+  if (run.realtime) frames = dataset::paced(std::move(frames));
   return run_slam(*frames, &sequence, settings, vocabulary, run, finished);
 }
 

@@ -20,6 +20,7 @@ namespace coloc::cli {
 
 struct RunOptions {
   bool sequential = false;     // tracking waits for local mapping after each keyframe
+  bool realtime = false;       // a sequence's frames arrive at their timestamps (dataset::paced)
   bool global_ba = true;       // of the finished map
   bool loop = true;            // loop closing
   std::filesystem::path load;  // a saved map to continue (empty: a new map)

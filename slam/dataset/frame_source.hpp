@@ -24,4 +24,10 @@ class FrameSource {
 // (one bad image must not cost a session). The sequence must outlive the source.
 std::unique_ptr<FrameSource> frames_of(const Sequence& sequence);
 
+// Frames of `source` handed out as a live camera delivers them: frame i no earlier than
+// (t_i - t_0) seconds after the first was handed out, never dropped (a consumer slower than the
+// camera falls behind, as ORB-SLAM2's rgbd_tum does). What the consumer does with the wait (the
+// mapper's thread gets it) is what separates a paced run from an unpaced one.
+std::unique_ptr<FrameSource> paced(std::unique_ptr<FrameSource> source);
+
 }  // namespace coloc::dataset

@@ -134,6 +134,7 @@ void LocalMapper::run() {
 }
 
 void LocalMapper::process(const map::KeyframeMessage& message) {
+  const Stopwatch watch;
   insert_keyframe(message);
   cull_recent_points(message.id);
   if (options_.triangulation) {
@@ -155,6 +156,7 @@ void LocalMapper::process(const map::KeyframeMessage& message) {
   if (options_.keyframe_culling) cull_keyframes(message.id);
   std::lock_guard lock(state_mutex_);
   ++stats_.keyframes;
+  stats_.keyframe_ms.push_back(watch.elapsed_ms());
 }
 
 void LocalMapper::insert_keyframe(const map::KeyframeMessage& message) {

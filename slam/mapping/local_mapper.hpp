@@ -52,6 +52,9 @@ struct MappingStats {
   int points_triangulated = 0;
   int markers = 0;            // marker observations stored in keyframes
   std::vector<double> ba_ms;  // wall time of each local BA
+  // Wall time of each keyframe in the mapper, BA included: against the camera's frame period
+  // times the frames between keyframes, whether a live mapper keeps up.
+  std::vector<double> keyframe_ms;
 };
 
 class LocalMapper final : public map::KeyframeSink {

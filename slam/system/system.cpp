@@ -25,7 +25,8 @@ std::string SystemSummary::describe() const {
   s << "local BA: " << mapping.ba_runs << " runs (" << mapping.ba_aborted << " aborted), ms median "
     << ba.median << ", p99 " << ba.p99 << "; keyframes culled " << mapping.keyframes_culled
     << ", points culled " << mapping.points_culled << ", fused " << mapping.points_fused
-    << ", triangulated " << mapping.points_triangulated;
+    << ", triangulated " << mapping.points_triangulated << "; mapper ms per keyframe median "
+    << summarize(mapping.keyframe_ms).median << ", p99 " << summarize(mapping.keyframe_ms).p99;
   std::vector<double> correction_ms;
   for (const auto& l : loop.loops)
     correction_ms.push_back(l.ms);

@@ -43,6 +43,9 @@ void TrackingOptions::check() const {
   if (!(reloc_gate_seconds >= 0.0)) throw Error("TrackingOptions.reloc_gate_seconds must be >= 0");
   if (!(reloc_gate_m >= 0.0)) throw Error("TrackingOptions.reloc_gate_m must be >= 0");
   if (!(reloc_gate_speed >= 0.0)) throw Error("TrackingOptions.reloc_gate_speed must be >= 0");
+  if (!(keyframe_defer_ratio >= 0.0 && keyframe_defer_ratio < 1.0))
+    throw Error("TrackingOptions.keyframe_defer_ratio must be in [0, 1)");
+  if (keyframe_defer_max < 0) throw Error("TrackingOptions.keyframe_defer_max must be >= 0");
   if (reloc_pause_min_inliers < 0)
     throw Error("TrackingOptions.reloc_pause_min_inliers must be >= 0");
   relocalization.check();
@@ -147,10 +150,12 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
         }
         result.local_map_ms = stage.elapsed_ms();
         stage.restart();
-        make_keyframe = need_keyframe();
+        make_keyframe = need_keyframe() && !defer_keyframe();
         result.keyframe_ms = stage.elapsed_ms();
+        recent_inliers_ = {matches_inliers_, recent_inliers_[0], recent_inliers_[1]};
       } else {
         has_velocity_ = false;
+        recent_inliers_ = {};
       }
       state_ = ok ? TrackingState::kOk : TrackingState::kLost;
       if (ok) {
@@ -488,6 +493,19 @@ bool Tracker::need_keyframe() const {
   if (mapping_idle) return true;
   sink_->interrupt();
   return sink_->queued() < 3;
+}
+
+bool Tracker::defer_keyframe() {
+  const int best = *std::max_element(recent_inliers_.begin(), recent_inliers_.end());
+  if (keyframes_deferred_ < options_.keyframe_defer_max &&
+      matches_inliers_ < options_.keyframe_defer_ratio * best) {
+    ++keyframes_deferred_;
+    spdlog::debug("tracking: frame {} keyframe deferred ({} inliers, {} in a frame before)",
+                  current_.id.value(), matches_inliers_, best);
+    return true;
+  }
+  keyframes_deferred_ = 0;
+  return false;
 }
 
 KeyframeId Tracker::add_current_keyframe() {

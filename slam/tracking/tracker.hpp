@@ -10,6 +10,7 @@
 //
 // Threads: track() is called from one thread; it holds SharedMap::mutex while it reads or
 // writes the map, not while it extracts features.
+#include <array>
 #include <memory>
 #include <opencv2/core/mat.hpp>
 #include <optional>
@@ -28,7 +29,10 @@ const char* to_string(TrackingState state);
 
 struct TrackingOptions {
   int min_init_points = 500;        // keypoints with depth needed to initialize
-  double motion_search_radius = 7;  // pixels (ORB-SLAM's th for stereo/RGB-D)
+  // Pixels at level 0. ORB-SLAM2 searches 15 for RGB-D (and monocular), 7 for stereo only; 7
+  // here lost fr1/rpy's blurred fast turns (frames 105-118), where the motion model's prediction
+  // is furthest off.
+  double motion_search_radius = 15;
   double local_search_th = 3;       // local-map search radius factor (RGB-D)
   int min_local_inliers = 30;       // local-map inliers to stay tracked
   int min_local_inliers_after_reloc = 50;
@@ -38,6 +42,13 @@ struct TrackingOptions {
   int close_untracked_limit = 70;  // ... and more close untracked ones => new keyframe
   int new_points_min = 100;        // new close points per keyframe (then stop at far depth)
   std::size_t max_local_keyframes = 80;
+  // A keyframe anchors the map: its pose and the points unprojected from its depth stay until
+  // a BA moves them, and a live mapper gets to that BA frames later. A frame tracked with fewer
+  // than keyframe_defer_ratio x the inliers of the best of the 3 frames before it (motion blur
+  // in a fast turn: fr1/rpy frames 110-118, poses off by 1-2 deg) does not become one; the next
+  // frame is asked again, at most keyframe_defer_max times in a row. 0 = never defer.
+  double keyframe_defer_ratio = 0.5;
+  int keyframe_defer_max = 2;
   // Rolling-shutter compensation is kept when the re-optimized pose keeps at least this share
   // of the frame's inliers.
   double rolling_shutter_keep_ratio = 0.9;
@@ -127,6 +138,9 @@ class Tracker {
   bool track_local_map();
   void update_local_map();
   bool need_keyframe() const;
+  // A needed keyframe is put off when this frame tracked far worse than the ones before it
+  // (TrackingOptions::keyframe_defer_ratio); counts the deferrals in a row.
+  bool defer_keyframe();
   void create_keyframe();
   // Inserts current_ (with its BoW vector) into the map as a new keyframe.
   KeyframeId add_current_keyframe();
@@ -156,6 +170,8 @@ class Tracker {
   FrameId last_keyframe_frame_;
   FrameId last_reloc_frame_;
   int matches_inliers_ = 0;
+  std::array<int, 3> recent_inliers_{};  // of the last tracked frames, newest first
+  int keyframes_deferred_ = 0;           // in a row (keyframe_defer_max)
   // Camera centre and time of the last tracked frame (the relocalization gate).
   Eigen::Vector3d last_tracked_centre_ = Eigen::Vector3d::Zero();
   std::optional<double> last_tracked_time_;

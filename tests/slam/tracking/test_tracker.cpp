@@ -23,6 +23,8 @@ using test_support::RecordingSink;
 using test_support::tracker_inputs;
 using test_support::vocabulary;
 
+constexpr double kBlurSigma = 3.0;  // pixels
+
 Tracker make_tracker(map::SharedMap& shared, map::KeyframeSink* sink,
                      const SyntheticRgbdScene& scene, TrackingOptions options = {}) {
   const auto in = tracker_inputs(scene.settings());
@@ -59,6 +61,40 @@ TEST(Tracker, MakesNoKeyframeWhileItsSinkDoesNotAccept) {
   // Only the initial keyframe, which tracking needs to exist at all.
   EXPECT_EQ(sink.ids().size(), 1u);
   EXPECT_EQ(shared.map.keyframe_count(), 1u);
+}
+
+// A frame smeared by a fast turn tracks with a fraction of its neighbours' inliers, at a poorer
+// pose; a keyframe made from it would anchor the map there (its pose and the points from its
+// depth) until a BA frames later. The tracker puts the keyframe off to a sharper frame.
+TEST(Tracker, PutsAKeyframeOffFromABlurredFrame) {
+  const SyntheticRgbdScene scene;
+  const int blurred = 12;
+  auto keyframe_frames = [&](double defer_ratio) {
+    map::SharedMap shared;
+    RecordingSink sink;
+    TrackingOptions options;
+    options.keyframe_defer_ratio = defer_ratio;
+    Tracker tracker = make_tracker(shared, &sink, scene, options);
+    std::vector<int> frames;
+    std::vector<int> inliers;
+    for (int i = 0; i < scene.size(); ++i) {
+      SyntheticFrame f = scene.frame(i);
+      if (i == blurred) cv::GaussianBlur(f.color, f.color, cv::Size(), kBlurSigma);
+      const auto r = tracker.track(f.color, f.depth, f.timestamp);
+      EXPECT_EQ(r.state, TrackingState::kOk) << "frame " << i;
+      inliers.push_back(r.inliers);
+      if (r.keyframe) frames.push_back(i);
+    }
+    return std::make_pair(frames, inliers);
+  };
+  const auto [undeferred, inliers] = keyframe_frames(0.0);
+  // The blur costs most inliers, and without deferral the drop itself asks for a keyframe.
+  ASSERT_LT(inliers[blurred], inliers[blurred - 1] / 2);
+  ASSERT_NE(std::find(undeferred.begin(), undeferred.end(), blurred), undeferred.end());
+  const auto [deferred, unused] = keyframe_frames(TrackingOptions{}.keyframe_defer_ratio);
+  EXPECT_EQ(std::find(deferred.begin(), deferred.end(), blurred), deferred.end());
+  // Only put off: the sharp frames after it are still mapped.
+  EXPECT_GE(deferred.size() + 1, undeferred.size());
 }
 
 TEST(Tracker, WithoutASinkLocalizesInAFixedMapAndLeavesItAsItWas) {
