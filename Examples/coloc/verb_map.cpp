@@ -102,31 +102,38 @@ RunResult run_live(const MapArgs& args, const RunOptions& run,
   return r;
 }
 
+// `coloc map --camera`: destinations checked first, then the live run and its outputs.
+void run_map_live(const MapArgs& args) {
+  // Unwritable destinations are errors before the camera starts, not after the recording.
+  if (!args.save.empty()) const AtomicFile probe(args.save);
+  { const AtomicFile probe(args.trajectory); }
+  if (!args.keyframes.empty()) const AtomicFile probe(args.keyframes);
+  const RunResult r =
+      run_live(args, {.global_ba = !args.no_global_ba, .loop = !args.no_loop, .load = args.load},
+               [&](const slam::system::System& slam) {
+                 if (!args.save.empty()) save_finished_map(slam, args.save, args.json);
+               });
+  write_tum_trajectory(args.trajectory, r.trajectory);
+  if (!args.keyframes.empty()) write_tum_trajectory(args.keyframes, r.keyframes);
+  if (args.json)
+    print_json({{"frames", r.summary.frames},
+                {"tracked", r.summary.tracked},
+                {"keyframes", r.summary.keyframes},
+                {"map_points", r.summary.points},
+                {"loops", r.summary.loop.loops.size()}});
+  else
+    std::cout << r.summary.describe() << "\ntrajectory: " << args.trajectory.string() << "\n";
+}
+
 void run_map(const MapArgs& given) {
   MapArgs args = given;
   if (args.sequence.empty() == args.camera.empty())
     throw CLI::ValidationError(
         "give one of --sequence DIR or --camera auto|/dev/videoN|replay:DIR");
   if (!args.camera.empty()) {
-    // Unwritable destinations are errors before the camera starts, not after the recording.
-    if (!args.save.empty()) const AtomicFile probe(args.save);
-    { const AtomicFile probe(args.trajectory); }
-    if (!args.keyframes.empty()) const AtomicFile probe(args.keyframes);
-    const RunResult r =
-        run_live(args, {.global_ba = !args.no_global_ba, .loop = !args.no_loop, .load = args.load},
-                 [&](const slam::system::System& slam) {
-                   if (!args.save.empty()) save_finished_map(slam, args.save, args.json);
-                 });
-    write_tum_trajectory(args.trajectory, r.trajectory);
-    if (!args.keyframes.empty()) write_tum_trajectory(args.keyframes, r.keyframes);
-    if (args.json)
-      print_json({{"frames", r.summary.frames},
-                  {"tracked", r.summary.tracked},
-                  {"keyframes", r.summary.keyframes},
-                  {"map_points", r.summary.points},
-                  {"loops", r.summary.loop.loops.size()}});
-    else
-      std::cout << r.summary.describe() << "\ntrajectory: " << args.trajectory.string() << "\n";
+    if (args.realtime)
+      throw CLI::ValidationError("--realtime paces a --sequence; a camera is live already");
+    run_map_live(args);
     return;
   }
   const MapInputs in = load_inputs(args);
@@ -221,10 +228,9 @@ void run_bench(const MapArgs& args) {
               "loops");
   std::vector<double> ate_online, ate_final;
   for (int run = 0; run < args.runs; ++run) {
-    const RunResult r = run_slam(*sequence, settings, vocabulary,
-                                 {.sequential = args.sequential,
-                                  .realtime = args.realtime,
-                                  .loop = !args.no_loop});
+    const RunResult r =
+        run_slam(*sequence, settings, vocabulary,
+                 {.sequential = args.sequential, .realtime = args.realtime, .loop = !args.no_loop});
     if (r.ate_online) ate_online.push_back(1e3 * r.ate_online->translation.rmse);
     if (r.ate) ate_final.push_back(1e3 * r.ate->translation.rmse);
     const auto& s = r.summary;

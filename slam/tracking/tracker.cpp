@@ -124,44 +124,7 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
       ok = initialize();
       if (ok) result.keyframe = true;
     } else {
-      Stopwatch stage;
-      if (state_ == TrackingState::kOk) {
-        ok = track_from_last_frame();
-      } else {
-        ok = relocalize();
-        result.relocalized = ok;
-      }
-      result.pose_ms = stage.elapsed_ms();
-      stage.restart();
-      if (ok) {
-        ok = track_local_map();
-        if (!ok)
-          spdlog::debug("tracking: frame {} local map inliers {}", current_.id.value(),
-                        matches_inliers_);
-      } else if (state_ == TrackingState::kOk) {
-        spdlog::debug("tracking: frame {} lost (motion model and reference keyframe failed)",
-                      current_.id.value());
-      }
-      if (ok) {
-        if (last_.has_pose) {
-          refine_rolling_shutter(grey.rows);
-          velocity_ = current_.cam_from_world * last_.cam_from_world.inverse();
-          has_velocity_ = true;
-        }
-        result.local_map_ms = stage.elapsed_ms();
-        stage.restart();
-        make_keyframe = need_keyframe() && !defer_keyframe();
-        result.keyframe_ms = stage.elapsed_ms();
-        recent_inliers_ = {matches_inliers_, recent_inliers_[0], recent_inliers_[1]};
-      } else {
-        has_velocity_ = false;
-        recent_inliers_ = {};
-      }
-      state_ = ok ? TrackingState::kOk : TrackingState::kLost;
-      if (ok) {
-        last_tracked_centre_ = current_.cam_from_world.inverse().translation();
-        last_tracked_time_ = timestamp;
-      }
+      ok = track_frame(grey.rows, timestamp, result, make_keyframe);
     }
     if (state_ != TrackingState::kNotInitialized) record_frame(ok);
     if (make_keyframe) {
@@ -188,6 +151,48 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
   spdlog::debug("tracking: frame {} state {} inliers {} keyframe {}", current_.id.value(),
                 to_string(state_), matches_inliers_, result.keyframe);
   return result;
+}
+
+bool Tracker::track_frame(int image_rows, double timestamp, TrackingResult& result,
+                          bool& make_keyframe) {
+  Stopwatch stage;
+  bool ok = false;
+  if (state_ == TrackingState::kOk) {
+    ok = track_from_last_frame();
+  } else {
+    ok = relocalize();
+    result.relocalized = ok;
+  }
+  result.pose_ms = stage.elapsed_ms();
+  stage.restart();
+  if (ok) {
+    ok = track_local_map();
+    if (!ok)
+      spdlog::debug("tracking: frame {} local map inliers {}", current_.id.value(),
+                    matches_inliers_);
+  } else if (state_ == TrackingState::kOk) {
+    spdlog::debug("tracking: frame {} lost (motion model and reference keyframe failed)",
+                  current_.id.value());
+  }
+  if (ok) {
+    if (last_.has_pose) {
+      refine_rolling_shutter(image_rows);
+      velocity_ = current_.cam_from_world * last_.cam_from_world.inverse();
+      has_velocity_ = true;
+    }
+    result.local_map_ms = stage.elapsed_ms();
+    stage.restart();
+    make_keyframe = need_keyframe() && !defer_keyframe();
+    result.keyframe_ms = stage.elapsed_ms();
+    recent_inliers_ = {matches_inliers_, recent_inliers_[0], recent_inliers_[1]};
+    last_tracked_centre_ = current_.cam_from_world.inverse().translation();
+    last_tracked_time_ = timestamp;
+  } else {
+    has_velocity_ = false;
+    recent_inliers_ = {};
+  }
+  state_ = ok ? TrackingState::kOk : TrackingState::kLost;
+  return ok;
 }
 
 void Tracker::refine_rolling_shutter(int image_rows) {

@@ -28,13 +28,13 @@ enum class TrackingState { kNotInitialized, kOk, kLost };
 const char* to_string(TrackingState state);
 
 struct TrackingOptions {
-  int min_init_points = 500;        // keypoints with depth needed to initialize
+  int min_init_points = 500;  // keypoints with depth needed to initialize
   // Pixels at level 0. ORB-SLAM2 searches 15 for RGB-D (and monocular), 7 for stereo only; 7
   // here lost fr1/rpy's blurred fast turns (frames 105-118), where the motion model's prediction
   // is furthest off.
   double motion_search_radius = 15;
-  double local_search_th = 3;       // local-map search radius factor (RGB-D)
-  int min_local_inliers = 30;       // local-map inliers to stay tracked
+  double local_search_th = 3;  // local-map search radius factor (RGB-D)
+  int min_local_inliers = 30;  // local-map inliers to stay tracked
   int min_local_inliers_after_reloc = 50;
   int max_frames_between_keyframes = 30;  // fps
   int min_frames_between_keyframes = 0;
@@ -129,6 +129,9 @@ class Tracker {
 
  private:
   bool initialize();
+  // One frame of an initialized tracker (motion model / reference keyframe / relocalization,
+  // then the local map); sets state_, the stage times and whether to make a keyframe.
+  bool track_frame(int image_rows, double timestamp, TrackingResult& result, bool& make_keyframe);
   // Projects the last frame's matches from velocity * last pose (current_from_last).
   // Motion model, else the reference keyframe, else (just relocalized) zero motion.
   bool track_from_last_frame();
