@@ -125,6 +125,47 @@ void run_map_live(const MapArgs& args) {
     std::cout << r.summary.describe() << "\ntrajectory: " << args.trajectory.string() << "\n";
 }
 
+// The finished run on stdout: a JSON summary (--json) or the summary text with the figures.
+void print_map_result(const MapArgs& args, const RunResult& r) {
+  const auto& s = r.summary;
+  if (args.json) {
+    print_json({{"frames", s.frames},
+                {"tracked", s.tracked},
+                {"lost", s.lost},
+                {"keyframes", s.keyframes},
+                {"map_points", s.points},
+                {"relocalizations", s.relocalizations},
+                {"markers", s.mapping.markers},
+                {"loops", s.loop.loops.size()},
+                {"loops_rejected", s.loop.rejected},
+                {"loop_correction_ms", loop_correction_ms(s.loop)},
+                {"ms_per_frame_median", s.total_ms.median},
+                {"ms_per_frame_p99", s.total_ms.p99},
+                {"ate_rmse_m", r.ate ? Json(r.ate->translation.rmse) : Json()},
+                {"ate_rmse_online_m", r.ate_online ? Json(r.ate_online->translation.rmse) : Json()},
+                {"ate_keyframes_rmse_m",
+                 r.ate_keyframes ? Json(r.ate_keyframes->translation.rmse) : Json()},
+                {"skipped_frames", r.skipped_frames}});
+  } else {
+    std::cout << s.describe() << "\n";
+    if (r.skipped_frames > 0)
+      std::cout << "skipped " << r.skipped_frames << " unreadable frames (see the warnings)\n";
+    if (r.global_ba)
+      std::cout << "global BA: " << r.global_ba->keyframes << " keyframes, " << r.global_ba->points
+                << " points, rms " << r.global_ba->initial_rms_px << " -> "
+                << r.global_ba->final_rms_px << " px, " << r.global_ba->ms << " ms\n";
+    if (r.ate_online && r.global_ba)
+      std::cout << "ATE RMSE as tracked " << r.ate_online->translation.rmse << " m\n";
+    if (r.ate)
+      std::cout << "ATE RMSE " << r.ate->translation.rmse << " m over " << r.ate->translation.count
+                << " poses\n";
+    if (r.ate_keyframes)
+      std::cout << "keyframe ATE RMSE " << r.ate_keyframes->translation.rmse << " m over "
+                << r.ate_keyframes->translation.count << " keyframes\n";
+    std::cout << "trajectory: " << args.trajectory.string() << "\n";
+  }
+}
+
 void run_map(const MapArgs& given) {
   MapArgs args = given;
   if (args.sequence.empty() == args.camera.empty())
@@ -175,42 +216,7 @@ void run_map(const MapArgs& given) {
   }
   write_tum_trajectory(args.trajectory, r.trajectory);
   if (!args.keyframes.empty()) write_tum_trajectory(args.keyframes, r.keyframes);
-  if (args.json) {
-    print_json({{"frames", s.frames},
-                {"tracked", s.tracked},
-                {"lost", s.lost},
-                {"keyframes", s.keyframes},
-                {"map_points", s.points},
-                {"relocalizations", s.relocalizations},
-                {"markers", s.mapping.markers},
-                {"loops", s.loop.loops.size()},
-                {"loops_rejected", s.loop.rejected},
-                {"loop_correction_ms", loop_correction_ms(s.loop)},
-                {"ms_per_frame_median", s.total_ms.median},
-                {"ms_per_frame_p99", s.total_ms.p99},
-                {"ate_rmse_m", r.ate ? Json(r.ate->translation.rmse) : Json()},
-                {"ate_rmse_online_m", r.ate_online ? Json(r.ate_online->translation.rmse) : Json()},
-                {"ate_keyframes_rmse_m",
-                 r.ate_keyframes ? Json(r.ate_keyframes->translation.rmse) : Json()},
-                {"skipped_frames", r.skipped_frames}});
-  } else {
-    std::cout << s.describe() << "\n";
-    if (r.skipped_frames > 0)
-      std::cout << "skipped " << r.skipped_frames << " unreadable frames (see the warnings)\n";
-    if (r.global_ba)
-      std::cout << "global BA: " << r.global_ba->keyframes << " keyframes, " << r.global_ba->points
-                << " points, rms " << r.global_ba->initial_rms_px << " -> "
-                << r.global_ba->final_rms_px << " px, " << r.global_ba->ms << " ms\n";
-    if (r.ate_online && r.global_ba)
-      std::cout << "ATE RMSE as tracked " << r.ate_online->translation.rmse << " m\n";
-    if (r.ate)
-      std::cout << "ATE RMSE " << r.ate->translation.rmse << " m over " << r.ate->translation.count
-                << " poses\n";
-    if (r.ate_keyframes)
-      std::cout << "keyframe ATE RMSE " << r.ate_keyframes->translation.rmse << " m over "
-                << r.ate_keyframes->translation.count << " keyframes\n";
-    std::cout << "trajectory: " << args.trajectory.string() << "\n";
-  }
+  print_map_result(args, r);
   if (live) linger(*server, live->stats(), args.view.linger_s);
 }
 
