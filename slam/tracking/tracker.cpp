@@ -182,7 +182,12 @@ bool Tracker::track_frame(int image_rows, double timestamp, TrackingResult& resu
     }
     result.local_map_ms = stage.elapsed_ms();
     stage.restart();
-    make_keyframe = need_keyframe() && !defer_keyframe();
+    make_keyframe = need_keyframe();
+    if (make_keyframe) {
+      make_keyframe = !defer_keyframe();
+    } else {
+      keyframes_deferred_ = 0;  // a streak of deferrals ends where no keyframe was needed
+    }
     result.keyframe_ms = stage.elapsed_ms();
     recent_inliers_ = {matches_inliers_, recent_inliers_[0], recent_inliers_[1]};
     last_tracked_centre_ = current_.cam_from_world.inverse().translation();
