@@ -32,6 +32,7 @@ constexpr std::array kTunables{
   Tunable{"tracking.max_local_keyframes", [](SystemOptions& o) -> Field { return &o.tracking.max_local_keyframes; }},
   Tunable{"tracking.keyframe_defer_ratio", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_defer_ratio; }},
   Tunable{"tracking.keyframe_defer_max", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_defer_max; }},
+  Tunable{"tracking.keyframe_keeps_outliers", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_keeps_outliers; }},
   Tunable{"tracking.rolling_shutter_keep_ratio", [](SystemOptions& o) -> Field { return &o.tracking.rolling_shutter_keep_ratio; }},
   Tunable{"tracking.rolling_shutter_rate_sigma", [](SystemOptions& o) -> Field { return &o.tracking.rolling_shutter_rate_sigma; }},
   Tunable{"tracking.reloc_gate_seconds", [](SystemOptions& o) -> Field { return &o.tracking.reloc_gate_seconds; }},

@@ -528,8 +528,11 @@ KeyframeId Tracker::add_current_keyframe() {
 
 void Tracker::create_keyframe() {
   map::Map& m = shared_.map;
-  matching::drop_outliers(current_);
+  if (!options_.keyframe_keeps_outliers) matching::drop_outliers(current_);
   const KeyframeId id = add_current_keyframe();
+  // The keyframe observes its outlier matches as plain observations: its BA decides them.
+  std::vector<std::uint8_t>& outlier = m.keyframe(id)->frame.outlier;
+  std::fill(outlier.begin(), outlier.end(), std::uint8_t{0});
   // New points from depth: every close keypoint without a point, then far ones up to a quota.
   std::vector<std::pair<float, std::size_t>> by_depth;
   for (std::size_t i = 0; i < current_.size(); ++i) {
