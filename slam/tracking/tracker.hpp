@@ -54,10 +54,11 @@ struct TrackingOptions {
   // them). Dropped, their keypoints get fresh depth points no other keyframe has seen, so the
   // reference keyframe holds fewer points seen twice and keyframes come less often. Measured on
   // fr1/rpy paced with the ORB-SLAM3 file: reference points 200 against ORB-SLAM2's 317, and
-  // kept outliers take ATE from 50 to 25 mm median (41-45 keyframes). Off by default: on the
-  // twin, a continued map then ends at 17 mm against 10 (ContinueMapping.SecondHalf...), and
-  // fr1/xyz moves from 5.28 to 5.46 mm. Set `Coloc.tracking.keyframe_keeps_outliers: 1` for
-  // fast-turning rolling-shutter footage without a readout time.
+  // kept outliers take ATE from 50 to 27 mm median (10 runs; ORB-SLAM2 26.8; 37-45 keyframes). Off
+  // by default: on the twin, a continued map then ends at 17 mm against 10
+  // (ContinueMapping.SecondHalf...), and fr1/xyz moves from 5.28 to 5.46 mm. Set
+  // `Coloc.tracking.keyframe_keeps_outliers: 1` for fast-turning rolling-shutter footage without a
+  // readout time.
   bool keyframe_keeps_outliers = false;
   // Rolling-shutter compensation is kept when the re-optimized pose keeps at least this share
   // of the frame's inliers.
