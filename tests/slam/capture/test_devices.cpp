@@ -16,24 +16,21 @@ namespace {
 
 namespace fs = std::filesystem;
 
-void write(const fs::path& p, const std::string& text) {
-  fs::create_directories(p.parent_path());
-  std::ofstream(p) << text << "\n";
-}
+using testing::write_sysfs_file;
 
 TEST(CaptureDiscovery, SysfsNodesAreGroupedByUsbDevice) {
   const fs::path root = coloc::testing::temp_dir("capture_sysfs");
   // /sys/devices/.../2-1 (the D455) with interfaces 2-1:1.0 (depth) and 2-1:1.3 (RGB), and a
   // webcam on 1-4; /sys/class/video4linux/videoN/device links to the interfaces.
   const fs::path d455 = root / "devices/usb2/2-1";
-  write(d455 / "idVendor", "8086");
-  write(d455 / "idProduct", "0b5c");
-  write(d455 / "serial", "123456789012");
-  write(d455 / "speed", "5000");
+  write_sysfs_file(d455 / "idVendor", "8086");
+  write_sysfs_file(d455 / "idProduct", "0b5c");
+  write_sysfs_file(d455 / "serial", "123456789012");
+  write_sysfs_file(d455 / "speed", "5000");
   const fs::path webcam = root / "devices/usb1/1-4";
-  write(webcam / "idVendor", "046d");
-  write(webcam / "idProduct", "0825");
-  write(webcam / "speed", "480");
+  write_sysfs_file(webcam / "idVendor", "046d");
+  write_sysfs_file(webcam / "idProduct", "0825");
+  write_sysfs_file(webcam / "speed", "480");
   const std::vector<std::tuple<int, fs::path, int, std::string>> nodes = {
       {0, d455 / "2-1:1.0", 0, "Intel(R) RealSense(TM) Depth Camera 455  Depth"},
       {1, d455 / "2-1:1.0", 1, "Intel(R) RealSense(TM) Depth Camera 455  Depth"},
@@ -42,8 +39,8 @@ TEST(CaptureDiscovery, SysfsNodesAreGroupedByUsbDevice) {
   for (const auto& [n, iface, index, name] : nodes) {
     fs::create_directories(iface);
     const fs::path entry = root / "class/video4linux" / ("video" + std::to_string(n));
-    write(entry / "name", name);
-    write(entry / "index", std::to_string(index));
+    write_sysfs_file(entry / "name", name);
+    write_sysfs_file(entry / "index", std::to_string(index));
     fs::create_directory_symlink(iface, entry / "device");
   }
   const auto found = scan_sysfs(root / "class/video4linux");

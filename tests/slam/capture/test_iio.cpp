@@ -6,6 +6,7 @@
 
 #include "slam/capture/iio.hpp"
 #include "slam/core/error.hpp"
+#include "tests/slam/capture/test_support.hpp"
 #include "tests/testing/data.hpp"
 
 namespace coloc::capture {
@@ -13,10 +14,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-void write(const fs::path& p, const std::string& text) {
-  fs::create_directories(p.parent_path());
-  std::ofstream(p) << text << "\n";
-}
+using testing::write_sysfs_file;
 
 std::string read(const fs::path& p) {
   std::ifstream in(p);
@@ -49,19 +47,19 @@ IioSensor fake_sensor(const fs::path& root, const std::string& dir, const std::s
                       const std::string& prefix, double scale,
                       const std::vector<std::array<std::int64_t, 4>>& scans) {
   const fs::path s = root / "sys" / dir;
-  write(s / "name", name);
-  write(s / (prefix + "_scale"), std::to_string(scale));
-  write(s / "buffer/enable", "0");
-  write(s / "buffer/length", "2");
+  write_sysfs_file(s / "name", name);
+  write_sysfs_file(s / (prefix + "_scale"), std::to_string(scale));
+  write_sysfs_file(s / "buffer/enable", "0");
+  write_sysfs_file(s / "buffer/length", "2");
   int i = 0;
   for (const std::string axis : {"_x", "_y", "_z"}) {
-    write(s / "scan_elements" / (prefix + axis + "_en"), "0");
-    write(s / "scan_elements" / (prefix + axis + "_index"), std::to_string(i++));
-    write(s / "scan_elements" / (prefix + axis + "_type"), "le:s32/32>>0");
+    write_sysfs_file(s / "scan_elements" / (prefix + axis + "_en"), "0");
+    write_sysfs_file(s / "scan_elements" / (prefix + axis + "_index"), std::to_string(i++));
+    write_sysfs_file(s / "scan_elements" / (prefix + axis + "_type"), "le:s32/32>>0");
   }
-  write(s / "scan_elements/in_timestamp_en", "0");
-  write(s / "scan_elements/in_timestamp_index", "3");
-  write(s / "scan_elements/in_timestamp_type", "le:s64/64>>0");
+  write_sysfs_file(s / "scan_elements/in_timestamp_en", "0");
+  write_sysfs_file(s / "scan_elements/in_timestamp_index", "3");
+  write_sysfs_file(s / "scan_elements/in_timestamp_type", "le:s64/64>>0");
   const fs::path dev = root / "dev" / dir;
   fs::create_directories(dev.parent_path());
   std::ofstream out(dev, std::ios::binary);

@@ -1,11 +1,20 @@
 #pragma once
 // An in-memory RGB-D sequence for the capture tests: textured colour and a sloped depth plane,
 // 640x480 (a resolution the D4xx tables know), timestamps at 30 Hz.
+#include <filesystem>
+#include <fstream>
 #include <opencv2/imgproc.hpp>
+#include <string>
 
 #include "slam/dataset/sequence.hpp"
 
 namespace coloc::capture::testing {
+
+// A sysfs attribute file as the kernel shows it: the text and a newline (parents created).
+inline void write_sysfs_file(const std::filesystem::path& p, const std::string& text) {
+  std::filesystem::create_directories(p.parent_path());
+  std::ofstream(p) << text << "\n";
+}
 
 inline PinholeCamera test_camera() {
   return {640, 480, 600.0, 600.0, 319.5, 239.5, {}};
