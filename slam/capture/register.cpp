@@ -55,10 +55,11 @@ cv::Mat DepthRegistrar::register_raw(const cv::Mat& depth_raw, double units_per_
 
 // Branch-free so that the compiler runs it in SIMD lanes: each depth pixel's target index in
 // the colour image (the spare row: no depth, behind the camera or outside) and its depth there
-// (at least 1 unit: 0 means empty). Compiled twice, for x86-64 and for Haswell-class CPUs
-// (AVX2 + FMA: 8 lanes), the loader picking the one the CPU runs.
+// (at least 1 unit: 0 means empty). Compiled twice, for x86-64 and for x86-64-v3 (AVX2 + FMA:
+// 8 lanes), the loader picking the one the CPU runs. Not "arch=haswell": GCC dispatches that on
+// the CPU model, so an AMD or a newer Intel CPU with AVX2 ran the 4-lane default clone.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("arch=haswell", "default")))
+__attribute__((target_clones("arch=x86-64-v3", "default")))
 #endif
 void DepthRegistrar::project_row(const std::uint16_t* raw, int y, float units,
                                  std::int32_t* target, std::uint16_t* value) const {
