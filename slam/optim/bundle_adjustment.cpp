@@ -177,6 +177,31 @@ int solve(BundleProblem& problem, std::vector<double>& pose_params, const Intrin
   return static_cast<int>(summary.iterations.size());
 }
 
+// Flags (never unflags) the observations beyond the chi2 thresholds at the current estimate,
+// and those behind their camera, as ORB-SLAM does.
+void flag_outliers(const BundleProblem& problem, const std::vector<double>& pose_params,
+                   const Intrinsics& k, const BundleOptions& options,
+                   std::vector<std::uint8_t>& outlier) {
+  for (std::size_t i = 0; i < problem.observations.size(); ++i) {
+    const auto& o = problem.observations[i];
+    const SE3 pose = pose_from_array(&pose_params[7 * o.pose]);
+    const Eigen::Vector3d p = pose * problem.points[o.point];
+    double chi2 = -1.0;
+    bool bad = false;
+    if (o.u_right >= 0.0) {
+      Eigen::Vector3d r;
+      if (stereo_residual(k, p, {o.pixel.x(), o.pixel.y(), o.u_right}, r, nullptr))
+        chi2 = r.squaredNorm() * o.inv_sigma2;
+      bad = chi2 < 0.0 || chi2 > options.chi2_stereo;
+    } else {
+      Eigen::Vector2d r;
+      if (mono_residual(k, p, o.pixel, r, nullptr)) chi2 = r.squaredNorm() * o.inv_sigma2;
+      bad = chi2 < 0.0 || chi2 > options.chi2_mono;
+    }
+    if (bad) outlier[i] = 1;
+  }
+}
+
 }  // namespace
 
 BundleResult bundle_adjust(BundleProblem& problem, const Intrinsics& k,
@@ -190,26 +215,13 @@ BundleResult bundle_adjust(BundleProblem& problem, const Intrinsics& k,
 
   result.iterations += solve(problem, pose_params, k, options, result.outlier, true,
                              options.iterations_robust, abort, result);
-  // Classify with the chi2 thresholds (ORB-SLAM also drops points behind the camera).
-  for (std::size_t i = 0; i < problem.observations.size(); ++i) {
-    const auto& o = problem.observations[i];
-    const SE3 pose = pose_from_array(&pose_params[7 * o.pose]);
-    const Eigen::Vector3d p = pose * problem.points[o.point];
-    double chi2 = -1.0;
-    if (o.u_right >= 0.0) {
-      Eigen::Vector3d r;
-      if (stereo_residual(k, p, {o.pixel.x(), o.pixel.y(), o.u_right}, r, nullptr))
-        chi2 = r.squaredNorm() * o.inv_sigma2;
-      result.outlier[i] = (chi2 < 0.0 || chi2 > options.chi2_stereo) ? 1 : 0;
-    } else {
-      Eigen::Vector2d r;
-      if (mono_residual(k, p, o.pixel, r, nullptr)) chi2 = r.squaredNorm() * o.inv_sigma2;
-      result.outlier[i] = (chi2 < 0.0 || chi2 > options.chi2_mono) ? 1 : 0;
-    }
-  }
+  flag_outliers(problem, pose_params, k, options, result.outlier);
   if (!(abort && abort->load()) && options.iterations_refine > 0) {
     result.iterations += solve(problem, pose_params, k, options, result.outlier, false,
                                options.iterations_refine, abort, result);
+    // ORB-SLAM2 checks every observation again after the refinement: a wrong match the kernel
+    // hid by splitting its error with the right ones shows once it pulls with full weight.
+    flag_outliers(problem, pose_params, k, options, result.outlier);
   }
   result.aborted = abort && abort->load();
   for (std::size_t i = 0; i < problem.poses.size(); ++i) {

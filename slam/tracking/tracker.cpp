@@ -43,6 +43,8 @@ void TrackingOptions::check() const {
   if (!(reloc_gate_seconds >= 0.0)) throw Error("TrackingOptions.reloc_gate_seconds must be >= 0");
   if (!(reloc_gate_m >= 0.0)) throw Error("TrackingOptions.reloc_gate_m must be >= 0");
   if (!(reloc_gate_speed >= 0.0)) throw Error("TrackingOptions.reloc_gate_speed must be >= 0");
+  if (!(weak_reference_ratio == 0.0 || weak_reference_ratio >= 1.0))
+    throw Error("TrackingOptions.weak_reference_ratio must be 0 (off) or at least 1");
   if (!(keyframe_defer_ratio >= 0.0 && keyframe_defer_ratio < 1.0))
     throw Error("TrackingOptions.keyframe_defer_ratio must be in [0, 1)");
   if (keyframe_defer_max < 0) throw Error("TrackingOptions.keyframe_defer_max must be >= 0");
@@ -497,8 +499,12 @@ bool Tracker::need_keyframe() const {
   const bool c1b =
       since_kf >= static_cast<std::uint64_t>(options_.min_frames_between_keyframes) && mapping_idle;
   const bool c1c = matches_inliers_ < ref_matches * 0.25 || need_close;
-  const bool c2 =
-      (matches_inliers_ < ref_matches * ref_ratio || need_close) && matches_inliers_ > 15;
+  // The reference is a keyframe this tracker made from a far weaker frame (a blurred one).
+  const bool weak_reference =
+      options_.weak_reference_ratio > 0.0 && reference_ == last_keyframe_ &&
+      matches_inliers_ > options_.weak_reference_ratio * last_keyframe_inliers_;
+  const bool c2 = (matches_inliers_ < ref_matches * ref_ratio || need_close || weak_reference) &&
+                  matches_inliers_ > 15;
   if (!((c1a || c1b || c1c) && c2)) return false;
   if (mapping_idle) return true;
   sink_->interrupt();
@@ -555,6 +561,8 @@ void Tracker::create_keyframe() {
   m.update_connections(id);
   reference_ = id;
   last_keyframe_frame_ = current_.id;
+  last_keyframe_ = id;
+  last_keyframe_inliers_ = matches_inliers_;
 }
 
 }  // namespace coloc::slam::tracking

@@ -97,6 +97,42 @@ TEST(Tracker, PutsAKeyframeOffFromABlurredFrame) {
   EXPECT_GE(deferred.size() + 1, undeferred.size());
 }
 
+// A keyframe made from a blurred frame all the same (no deferral left) holds few points seen
+// twice, so the ratio test would not ask for another while the sharp frames after it track more
+// than 0.75 x that few. The first sharp frame (twice the inliers) replaces it.
+TEST(Tracker, ReplacesAKeyframeMadeFromABlurredFrame) {
+  const SyntheticRgbdScene scene;
+  const int blurred = 12;
+  auto keyframe_frames = [&](double weak_reference_ratio) {
+    map::SharedMap shared;
+    RecordingSink sink;
+    TrackingOptions options;
+    options.keyframe_defer_max = 0;  // the blurred frame becomes a keyframe all the same
+    options.weak_reference_ratio = weak_reference_ratio;
+    Tracker tracker = make_tracker(shared, &sink, scene, options);
+    std::vector<int> frames;
+    for (int i = 0; i < scene.size(); ++i) {
+      SyntheticFrame f = scene.frame(i);
+      if (i == blurred)
+        cv::GaussianBlur(f.color, f.color, cv::Size(),
+                         2 * kBlurSigma);  // to under half the inliers
+      const auto r = tracker.track(f.color, f.depth, f.timestamp);
+      EXPECT_EQ(r.state, TrackingState::kOk) << "frame " << i;
+      if (r.keyframe) frames.push_back(i);
+    }
+    return frames;
+  };
+  auto has = [](const std::vector<int>& frames, int i) {
+    return std::find(frames.begin(), frames.end(), i) != frames.end();
+  };
+  const std::vector<int> kept = keyframe_frames(0.0);
+  ASSERT_TRUE(has(kept, blurred));
+  ASSERT_FALSE(has(kept, blurred + 1));
+  const std::vector<int> replaced = keyframe_frames(TrackingOptions{}.weak_reference_ratio);
+  EXPECT_TRUE(has(replaced, blurred));
+  EXPECT_TRUE(has(replaced, blurred + 1));
+}
+
 TEST(Tracker, WithoutASinkLocalizesInAFixedMapAndLeavesItAsItWas) {
   SyntheticSceneOptions scene_options;
   scene_options.frames = 60;
