@@ -62,11 +62,15 @@ struct TrackingOptions {
   // them). Dropped, their keypoints get fresh depth points no other keyframe has seen, so the
   // reference keyframe holds fewer points seen twice and keyframes come less often. Measured on
   // fr1/rpy paced with the ORB-SLAM3 file: reference points 200 against ORB-SLAM2's 317, and
-  // kept outliers take ATE from 50 to 27 mm median (10 runs; ORB-SLAM2 26.8; 37-45 keyframes). Off
-  // by default: on the twin, a continued map then ends at 17 mm against 10
-  // (ContinueMapping.SecondHalf...), and fr1/xyz moves from 5.28 to 5.46 mm. Set
-  // `Coloc.tracking.keyframe_keeps_outliers: 1` for fast-turning rolling-shutter footage without a
-  // readout time.
+  // kept outliers take ATE from 50 to 27 mm median (10 runs; ORB-SLAM2 26.8; 37-45 keyframes).
+  // Off by default because BA does not reject what it is handed reliably: in the synthetic box
+  // room (ContinueMapping.SecondHalf...), whose repeated cell corners give 20 % wrong matches,
+  // about half of them survive the BA (a point seen by one other keyframe splits the error) and
+  // the one-go map goes from 2.8 to 10.3 mm, the continued one to 17 mm. Not giving those
+  // keypoints new points instead (no duplicate) helped fr1/rpy without a readout time (24 mm)
+  // but cost 3.5x with one (49 mm) and 7-Scenes 6 %: there a rejected match is mostly a bad
+  // point, and the fresh point replaces it. Set `Coloc.tracking.keyframe_keeps_outliers: 1` for
+  // fast-turning rolling-shutter footage without a readout time.
   bool keyframe_keeps_outliers = false;
   // Rolling-shutter compensation is kept when the re-optimized pose keeps at least this share
   // of the frame's inliers.
