@@ -49,13 +49,15 @@ struct TrackingOptions {
   // frame is asked again, at most keyframe_defer_max times in a row. 0 = never defer.
   double keyframe_defer_ratio = 0.5;
   int keyframe_defer_max = 2;
-  // A keyframe made from such a frame all the same (keyframe_defer_max reached) is a poor
-  // reference: it holds few points seen twice, so ORB-SLAM's ratio test (c2) stays false while
-  // frames track more than 0.75 x that few, however much of the view is unmapped. On fr1/rpy a
-  // keyframe made at frame 54 from 78 inliers held keyframes off until frame 71 in 2 of 8 runs
-  // (28-31 keyframes, ATE 28 mm, against 13-15 mm with 34-41). So a frame that tracks more than
-  // weak_reference_ratio x the inliers of the frame its reference keyframe was made from
-  // replaces it (the keyframe's own ratio test cannot, being blind to its weakness). 0 = off.
+  // A keyframe made from a frame that tracked poorly (blurred after keyframe_defer_max
+  // deferrals, or a view the map barely covered) is a poor reference: it holds few points seen
+  // twice, so ORB-SLAM's ratio test (c2) stays false while frames track more than 0.75 x that
+  // few, however much of the view is unmapped. On fr1/rpy a keyframe made at frame 54 from 78
+  // inliers held keyframes off until frame 71 in 2 of 8 runs (28-31 keyframes, ATE 28 mm, against
+  // 13-15 mm with 34-41). So a frame that tracks more than weak_reference_ratio x the inliers of
+  // the frame its reference keyframe was made from replaces it. 0 = off. (Limited to keyframes
+  // made from blurred frames, 6 of 8 fr1/rpy runs ended near 20 mm: the rule also helps after
+  // keyframes made at the edge of the map.)
   double weak_reference_ratio = 2.0;
   // A new keyframe keeps the matches the frame's pose optimization called outliers, as ORB-SLAM2
   // does ("so that bundle adjustment will finally decide"; the next frame's tracking drops
