@@ -165,28 +165,114 @@ Matrix6d square_root(const Matrix6d& covariance) {
          eig.eigenvectors().transpose();
 }
 
-// Mean squared relative-pose error (translation m^2, rotation rad^2) that the two calibrations'
-// covariances and the two systems' noise predict, over the walk at 1 Hz.
-std::pair<double, double> predict_pair(const MultiUserOptions& o, const Member& a, int ka,
-                                       const Member& b, int kb, const SE3& world_from_camera,
-                                       std::mt19937& rng) {
+// A participant's predicted world-frame head error at the prediction times (2 s, 3 s, ...):
+// published head = Exp(e) * true head * Exp(tracking noise), one path of e per realization.
+using ErrorPaths = std::vector<std::vector<Vector6d>>;  // [realization][time]
+
+constexpr int kRealizations = 50;
+
+std::vector<double> prediction_times(const MultiUserOptions& o) {
+  std::vector<double> times;
+  for (double t = 2.0; t < o.duration; t += 1.0)
+    times.push_back(t);
+  return times;
+}
+
+Vector6d gaussian(std::mt19937& rng, double position_sigma, double rotation_sigma) {
   std::normal_distribution<double> n(0.0, 1.0);
-  const Matrix6d root_a = square_root(a.covariance), root_b = square_root(b.covariance);
-  const SE3 camera_from_world = world_from_camera.inverse();
+  Vector6d xi;
+  xi << Eigen::Vector3d(n(rng), n(rng), n(rng)) * position_sigma,
+      Eigen::Vector3d(n(rng), n(rng), n(rng)) * rotation_sigma;
+  return xi;
+}
+
+// Calibration only: estimated vr_from_camera = truth * Exp(eps), eps ~ the calibration's
+// covariance, so every head is seen through camera * Exp(-eps): e = Ad(world_from_camera) (-eps).
+ErrorPaths calibration_error_paths(const Member& m, std::size_t times,
+                                   const SE3& world_from_camera, std::mt19937& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  const Matrix6d root = square_root(m.covariance);
+  ErrorPaths paths(kRealizations);
+  for (std::vector<Vector6d>& path : paths) {
+    Vector6d eps;
+    for (int i = 0; i < 6; ++i)
+      eps[i] = n(rng);
+    path.assign(times, world_from_camera.adjoint() * -(root * eps));
+  }
+  return paths;
+}
+
+// Drift-corrected: the fuser's error, linearized. Its filter (drift_filter.hpp) averages the
+// measured drifts D_k = global_k * calibrated_k^-1 = Exp(d_k) D(t_k), componentwise with one
+// gain K_k for translation and quaternion, which to first order is a weighted mean of the left
+// perturbations d_k = Ad(head_k) (global noise - tracking noise). The calibration's error is
+// part of D and cancels. Between updates the true D moves by the system's drift; the filter
+// lags it. The gains come from the fuser's own P recursion (Q, R of its options).
+ErrorPaths fuser_error_paths(const MultiUserOptions& o, const Member& m, int k,
+                             const std::vector<double>& times, const FuserOptions& fuser,
+                             std::mt19937& rng) {
+  const int every = std::max(1, static_cast<int>(std::lround(o.rate / m.model.global_rate)));
+  const int steps = static_cast<int>(o.duration * o.rate);
+  std::vector<double> at;
+  std::vector<Matrix6d> adjoint;
+  for (int i = 0; i < steps; i += every) {
+    at.push_back(i / o.rate);
+    adjoint.push_back(truth_of(o, k, at.back()).head.adjoint());
+  }
+  const auto moved = [&](double t0, double t1) {  // D(t1) D(t0)^-1, as a left perturbation
+    return (m.world_from_vr(t1) * m.world_from_vr(t0).inverse()).log();
+  };
+  const double q = fuser.filter.process_noise, r = fuser.filter.measurement_noise;
+  ErrorPaths paths(kRealizations);
+  for (std::vector<Vector6d>& path : paths) {
+    path.assign(times.size(), Vector6d::Zero());
+    Vector6d e = Vector6d::Zero();
+    double p = 0.0;
+    std::size_t next = 0;
+    for (std::size_t u = 0; u < at.size(); ++u) {
+      // A head published at the update's time is placed before the global pose arrives.
+      for (; next < times.size() && times[next] <= at[u]; ++next)
+        path[next] = u == 0 ? e : Vector6d(e - moved(at[u - 1], times[next]));
+      const Vector6d d =
+          adjoint[u] * (gaussian(rng, o.global_sigma, o.global_sigma / 3.0) -
+                        gaussian(rng, m.model.position_noise, m.model.rotation_noise));
+      if (u == 0) {
+        e = d;
+        p = r;
+        continue;
+      }
+      p += q;
+      const double gain = p / (p + r);
+      e = (1.0 - gain) * (e - moved(at[u - 1], at[u])) + gain * d;
+      p *= 1.0 - gain;
+    }
+    for (; next < times.size(); ++next)
+      path[next] = e - moved(at.back(), times[next]);
+  }
+  return paths;
+}
+
+ErrorPaths error_paths(const MultiUserOptions& o, const Member& m, int k,
+                       const SE3& world_from_camera, std::mt19937& rng) {
+  const std::vector<double> times = prediction_times(o);
+  if (m.model.global_rate > 0.0) return fuser_error_paths(o, m, k, times, FuserOptions{}, rng);
+  return calibration_error_paths(m, times.size(), world_from_camera, rng);
+}
+
+// Mean squared relative-pose error (translation m^2, rotation rad^2) that the two participants'
+// error models predict (calibration covariance, or the fuser's filtered global noise and drift
+// lag), with both systems' tracking noise, over the walk at 1 Hz.
+std::pair<double, double> predict_pair(const MultiUserOptions& o, const Member& a, int ka,
+                                       const ErrorPaths& ea, const Member& b, int kb,
+                                       const ErrorPaths& eb, std::mt19937& rng) {
+  const std::vector<double> times = prediction_times(o);
   double position = 0.0, rotation = 0.0;
   int count = 0;
-  for (double t = 2.0; t < o.duration; t += 1.0) {
-    const SE3 ta = truth_of(o, ka, t).head, tb = truth_of(o, kb, t).head;
+  for (std::size_t j = 0; j < times.size(); ++j) {
+    const SE3 ta = truth_of(o, ka, times[j]).head, tb = truth_of(o, kb, times[j]).head;
     const SE3 truth = ta.inverse() * tb;
-    for (int s = 0; s < 50; ++s) {
-      Vector6d ea, eb;
-      for (int i = 0; i < 6; ++i) {
-        ea[i] = n(rng);
-        eb[i] = n(rng);
-      }
-      // estimated vr_from_camera = truth * Exp(eps): heads seen through camera * Exp(-eps).
-      const SE3 ha = world_from_camera * SE3::exp(-(root_a * ea)) * camera_from_world * ta;
-      const SE3 hb = world_from_camera * SE3::exp(-(root_b * eb)) * camera_from_world * tb;
+    for (std::size_t s = 0; s < ea.size(); ++s) {
+      const SE3 ha = SE3::exp(ea[s][j]) * ta, hb = SE3::exp(eb[s][j]) * tb;
       const SE3 rel = noisy(ha, rng, a.model.position_noise, a.model.rotation_noise).inverse() *
                       noisy(hb, rng, b.model.position_noise, b.model.rotation_noise);
       position += std::pow(translation_distance(rel, truth), 2);
@@ -284,11 +370,15 @@ void run_trial(const MultiUserOptions& o, int trial, Totals& totals) {
       }
     }
   }
+  std::vector<ErrorPaths> paths;
+  for (int a = 0; a < k_count; ++a)
+    paths.push_back(error_paths(o, members[a], a, world_from_camera, rng));
   std::size_t pair = 0;
   for (int a = 0; a < k_count; ++a) {
     totals.calibration_error[a] += members[a].calibration_error / o.trials;
     for (int b = a + 1; b < k_count; ++b, ++pair) {
-      const auto [p, r] = predict_pair(o, members[a], a, members[b], b, world_from_camera, rng);
+      const auto [p, r] =
+          predict_pair(o, members[a], a, paths[a], members[b], b, paths[b], rng);
       totals.pair_predicted_position[pair] += p / o.trials;
       totals.pair_predicted_rotation[pair] += r / o.trials;
     }

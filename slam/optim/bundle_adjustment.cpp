@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <memory>
 
 #include "slam/core/error.hpp"
@@ -77,8 +78,8 @@ bool evaluate_cost(const Intrinsics& k, const Obs& obs, double inv_sigma,
     for (int i = 0; i < kRows; ++i)
       residuals[i] = 1e3;
     if (jacobians) {
-      if (jacobians[0]) std::fill(jacobians[0], jacobians[0] + kRows * 7, 0.0);
-      if (jacobians[1]) std::fill(jacobians[1], jacobians[1] + kRows * 3, 0.0);
+      if (jacobians[0]) std::fill(jacobians[0], jacobians[0] + std::ptrdiff_t{kRows} * 7, 0.0);
+      if (jacobians[1]) std::fill(jacobians[1], jacobians[1] + std::ptrdiff_t{kRows} * 3, 0.0);
     }
     return true;
   }
@@ -142,7 +143,7 @@ int solve(BundleProblem& problem, std::vector<double>& pose_params, const Intrin
   for (std::size_t i = 0; i < problem.observations.size(); ++i) {
     if (skip[i]) continue;
     const auto& o = problem.observations[i];
-    double* pose = &pose_params[7 * o.pose];
+    double* pose = &pose_params[std::size_t{7} * o.pose];
     double* point = problem.points[o.point].data();
     const double inv_sigma = std::sqrt(o.inv_sigma2);
     ceres::LossFunction* loss = nullptr;
@@ -184,7 +185,7 @@ void flag_outliers(const BundleProblem& problem, const std::vector<double>& pose
                    std::vector<std::uint8_t>& outlier) {
   for (std::size_t i = 0; i < problem.observations.size(); ++i) {
     const auto& o = problem.observations[i];
-    const SE3 pose = pose_from_array(&pose_params[7 * o.pose]);
+    const SE3 pose = pose_from_array(&pose_params[std::size_t{7} * o.pose]);
     const Eigen::Vector3d p = pose * problem.points[o.point];
     double chi2 = -1.0;
     bool bad = false;
