@@ -63,38 +63,48 @@ TEST(Tracker, MakesNoKeyframeWhileItsSinkDoesNotAccept) {
   EXPECT_EQ(shared.map.keyframe_count(), 1u);
 }
 
+// The frames of `scene` tracked with a sink, frame `blurred` smeared by a Gaussian of `sigma`
+// pixels: which became keyframes, and each frame's inliers.
+struct BlurredRun {
+  std::vector<int> keyframes, inliers;
+  bool keyframe(int i) const {
+    return std::find(keyframes.begin(), keyframes.end(), i) != keyframes.end();
+  }
+};
+
+BlurredRun track_with_a_blurred_frame(const SyntheticRgbdScene& scene,
+                                      const TrackingOptions& options, int blurred, double sigma) {
+  map::SharedMap shared;
+  RecordingSink sink;
+  Tracker tracker = make_tracker(shared, &sink, scene, options);
+  BlurredRun run;
+  for (int i = 0; i < scene.size(); ++i) {
+    SyntheticFrame f = scene.frame(i);
+    if (i == blurred) cv::GaussianBlur(f.color, f.color, cv::Size(), sigma);
+    const auto r = tracker.track(f.color, f.depth, f.timestamp);
+    EXPECT_EQ(r.state, TrackingState::kOk) << "frame " << i;
+    run.inliers.push_back(r.inliers);
+    if (r.keyframe) run.keyframes.push_back(i);
+  }
+  return run;
+}
+
 // A frame smeared by a fast turn tracks with a fraction of its neighbours' inliers, at a poorer
 // pose; a keyframe made from it would anchor the map there (its pose and the points from its
 // depth) until a BA frames later. The tracker puts the keyframe off to a sharper frame.
 TEST(Tracker, PutsAKeyframeOffFromABlurredFrame) {
   const SyntheticRgbdScene scene;
   const int blurred = 12;
-  auto keyframe_frames = [&](double defer_ratio) {
-    map::SharedMap shared;
-    RecordingSink sink;
-    TrackingOptions options;
-    options.keyframe_defer_ratio = defer_ratio;
-    Tracker tracker = make_tracker(shared, &sink, scene, options);
-    std::vector<int> frames;
-    std::vector<int> inliers;
-    for (int i = 0; i < scene.size(); ++i) {
-      SyntheticFrame f = scene.frame(i);
-      if (i == blurred) cv::GaussianBlur(f.color, f.color, cv::Size(), kBlurSigma);
-      const auto r = tracker.track(f.color, f.depth, f.timestamp);
-      EXPECT_EQ(r.state, TrackingState::kOk) << "frame " << i;
-      inliers.push_back(r.inliers);
-      if (r.keyframe) frames.push_back(i);
-    }
-    return std::make_pair(frames, inliers);
-  };
-  const auto [undeferred, inliers] = keyframe_frames(0.0);
+  TrackingOptions options;
+  options.keyframe_defer_ratio = 0.0;
+  const BlurredRun undeferred = track_with_a_blurred_frame(scene, options, blurred, kBlurSigma);
   // The blur costs most inliers, and without deferral the drop itself asks for a keyframe.
-  ASSERT_LT(inliers[blurred], inliers[blurred - 1] / 2);
-  ASSERT_NE(std::find(undeferred.begin(), undeferred.end(), blurred), undeferred.end());
-  const auto [deferred, unused] = keyframe_frames(TrackingOptions{}.keyframe_defer_ratio);
-  EXPECT_EQ(std::find(deferred.begin(), deferred.end(), blurred), deferred.end());
+  ASSERT_LT(undeferred.inliers[blurred], undeferred.inliers[blurred - 1] / 2);
+  ASSERT_TRUE(undeferred.keyframe(blurred));
+  const BlurredRun deferred = track_with_a_blurred_frame(scene, {}, blurred, kBlurSigma);
+  EXPECT_FALSE(deferred.keyframe(blurred));
   // Only put off: the sharp frames after it are still mapped.
-  EXPECT_GE(deferred.size() + 1, undeferred.size());
+  EXPECT_GE(deferred.keyframes.size() + 1, undeferred.keyframes.size());
 }
 
 // A keyframe made from a blurred frame all the same (no deferral left) holds few points seen
@@ -103,34 +113,17 @@ TEST(Tracker, PutsAKeyframeOffFromABlurredFrame) {
 TEST(Tracker, ReplacesAKeyframeMadeFromABlurredFrame) {
   const SyntheticRgbdScene scene;
   const int blurred = 12;
-  auto keyframe_frames = [&](double weak_reference_ratio) {
-    map::SharedMap shared;
-    RecordingSink sink;
-    TrackingOptions options;
-    options.keyframe_defer_max = 0;  // the blurred frame becomes a keyframe all the same
-    options.weak_reference_ratio = weak_reference_ratio;
-    Tracker tracker = make_tracker(shared, &sink, scene, options);
-    std::vector<int> frames;
-    for (int i = 0; i < scene.size(); ++i) {
-      SyntheticFrame f = scene.frame(i);
-      if (i == blurred)
-        cv::GaussianBlur(f.color, f.color, cv::Size(),
-                         2 * kBlurSigma);  // to under half the inliers
-      const auto r = tracker.track(f.color, f.depth, f.timestamp);
-      EXPECT_EQ(r.state, TrackingState::kOk) << "frame " << i;
-      if (r.keyframe) frames.push_back(i);
-    }
-    return frames;
-  };
-  auto has = [](const std::vector<int>& frames, int i) {
-    return std::find(frames.begin(), frames.end(), i) != frames.end();
-  };
-  const std::vector<int> kept = keyframe_frames(0.0);
-  ASSERT_TRUE(has(kept, blurred));
-  ASSERT_FALSE(has(kept, blurred + 1));
-  const std::vector<int> replaced = keyframe_frames(TrackingOptions{}.weak_reference_ratio);
-  EXPECT_TRUE(has(replaced, blurred));
-  EXPECT_TRUE(has(replaced, blurred + 1));
+  const double sigma = 2 * kBlurSigma;  // to under half the inliers
+  TrackingOptions options;
+  options.keyframe_defer_max = 0;  // the blurred frame becomes a keyframe all the same
+  options.weak_reference_ratio = 0.0;
+  const BlurredRun kept = track_with_a_blurred_frame(scene, options, blurred, sigma);
+  ASSERT_TRUE(kept.keyframe(blurred));
+  ASSERT_FALSE(kept.keyframe(blurred + 1));
+  options.weak_reference_ratio = TrackingOptions{}.weak_reference_ratio;
+  const BlurredRun replaced = track_with_a_blurred_frame(scene, options, blurred, sigma);
+  EXPECT_TRUE(replaced.keyframe(blurred));
+  EXPECT_TRUE(replaced.keyframe(blurred + 1));
 }
 
 TEST(Tracker, WithoutASinkLocalizesInAFixedMapAndLeavesItAsItWas) {
