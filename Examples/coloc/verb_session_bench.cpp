@@ -26,6 +26,7 @@ struct BenchArgs {
   fs::MultiUserOptions sim;
   std::string walk;
   bool no_drift = false;
+  bool no_gating = false;
   bool json = false;
 };
 
@@ -87,9 +88,11 @@ Json accuracy_json(const fs::MultiUserReport& r) {
 }
 
 void print_accuracy(const fs::MultiUserOptions& o, const fs::MultiUserReport& r) {
-  std::printf("\nmulti-user simulation: %d participants, %d trial(s) x %.0f s, %s walk, drift %s\n",
-              o.participants, o.trials, o.duration, o.walk.empty() ? "hall" : "given",
-              o.drift ? "on" : "off");
+  std::printf(
+      "\nmulti-user simulation: %d participants, %d trial(s) x %.0f s, %s walk, drift %s, fuser "
+      "gate %s\n",
+      o.participants, o.trials, o.duration, o.walk.empty() ? "hall" : "given",
+      o.drift ? "on" : "off", o.fuser_gating ? "on" : "off");
   std::printf(
       "| user | system | head rms | head p95 | head rot rms | controllers rms | controllers "
       "p95 | calibration error |\n|---|---|---|---|---|---|---|---|\n");
@@ -128,6 +131,7 @@ void run_bench(BenchArgs a) {
   if (a.accuracy) {
     if (!a.walk.empty()) a.sim.walk = read_tum_trajectory(a.walk);
     a.sim.drift = !a.no_drift;
+    a.sim.fuser_gating = !a.no_gating;
     const fs::MultiUserReport r = fs::simulate_multi_user(a.sim);
     if (a.json)
       out["accuracy"] = accuracy_json(r);
@@ -169,6 +173,8 @@ void add_session_bench(CLI::App& bench) {
                  "Accuracy: world_from_head TUM file (twin: headset/headset_groundtruth.txt)")
       ->check(CLI::ExistingFile);
   cmd.add_flag("--no-drift", a->no_drift, "Accuracy: no system drifts (calibration + noise)");
+  cmd.add_flag("--no-gating", a->no_gating,
+               "Accuracy: the fusers without their Mahalanobis gate (the prediction's model)");
   cmd.add_flag("--json", a->json);
   cmd.callback([a] { run_bench(*a); });
 }

@@ -7,8 +7,19 @@
 // pose is compared with the truth in the world frame.
 //
 // Also measured: the pairwise relative head pose (what two users see of each other) against what
-// the two calibrations' covariances predict, and An et al.'s locked-controller stability (Table
+// the two participants' error models predict, and An et al.'s locked-controller stability (Table
 // 2): participant 0's controller 0 and participant 1's controller 0 locked together.
+//
+// The prediction, per participant, as a world-frame error e of its published head
+// (Exp(e) * true head * Exp(tracking noise)), sampled 50 times per trial at 1 Hz of the walk:
+// - placed by the calibration only: e = Ad(world_from_camera) (-eps), eps ~ the calibration's
+//   covariance (vr_from_camera_covariance);
+// - drift-corrected: the fuser's filter linearized (its gains from its own P recursion with the
+//   session's Q and R) run over the simulated localizer noise and tracking noise mapped to the
+//   world (Ad(head)), and over the system's drift, which it lags; the calibration's error is part
+//   of the drift the fuser estimates and cancels.
+// Both heads then take their systems' tracking noise. The fusers' Mahalanobis gate is not in that
+// model (MultiUserOptions::fuser_gating turns it off to compare like with like).
 
 #include <cstdint>
 #include <string>
@@ -45,7 +56,10 @@ struct MultiUserOptions {
   double occluded_fraction = 0.05;  // participant 1's controller 1: this share of samples jump
   double occluded_jump = 0.3;       // m, typical size of such a jump
   bool drift = true;                // false: no system drifts (calibration + noise only)
-  int trials = 10;                  // independent sessions (new calibrations, seeds)
+  // The fusers' Mahalanobis gate (DriftFilterOptions::gating). Off, the fusers are the linear
+  // filters the prediction models; on (the session's default) is what users get.
+  bool fuser_gating = true;
+  int trials = 10;  // independent sessions (new calibrations, seeds)
   std::uint32_t seed = 1;
   Trajectory walk;  // world_from_head of a walk (the twin's); empty: fusion's simulated hall
 
@@ -67,7 +81,7 @@ struct UserError {
 struct PairError {
   std::string a, b;
   double measured_position_rms = 0.0;   // m: relative head pose (a^-1 b) vs truth
-  double predicted_position_rms = 0.0;  // m: from both calibrations' covariances + noise
+  double predicted_position_rms = 0.0;  // m: from both participants' error models (above)
   double measured_rotation_rms = 0.0;   // rad
   double predicted_rotation_rms = 0.0;  // rad
   bool calibration_limited = false;     // neither system drifts: the prediction is complete

@@ -140,7 +140,8 @@ std::vector<Member> make_members(const MultiUserOptions& o, int trial, const SE3
   return members;
 }
 
-Session make_session(const std::vector<Member>& members, const SE3& world_from_camera) {
+Session make_session(const std::vector<Member>& members, const SE3& world_from_camera,
+                     bool gating) {
   SessionConfig config;
   config.anchor.world_from_camera = world_from_camera;
   std::vector<he::CalibrationFile> calibrations;
@@ -155,7 +156,9 @@ Session make_session(const std::vector<Member>& members, const SE3& world_from_c
     config.participants.push_back(p);
     calibrations.push_back(m.calibration);
   }
-  return Session(config, calibrations);
+  FuserOptions fuser;
+  fuser.filter.gating = gating;
+  return Session(config, calibrations, fuser);
 }
 
 // A square root of a covariance (eigen-decomposition: semi-definite input is fine).
@@ -188,8 +191,8 @@ Vector6d gaussian(std::mt19937& rng, double position_sigma, double rotation_sigm
 
 // Calibration only: estimated vr_from_camera = truth * Exp(eps), eps ~ the calibration's
 // covariance, so every head is seen through camera * Exp(-eps): e = Ad(world_from_camera) (-eps).
-ErrorPaths calibration_error_paths(const Member& m, std::size_t times,
-                                   const SE3& world_from_camera, std::mt19937& rng) {
+ErrorPaths calibration_error_paths(const Member& m, std::size_t times, const SE3& world_from_camera,
+                                   std::mt19937& rng) {
   std::normal_distribution<double> n(0.0, 1.0);
   const Matrix6d root = square_root(m.covariance);
   ErrorPaths paths(kRealizations);
@@ -351,7 +354,7 @@ void run_trial(const MultiUserOptions& o, int trial, Totals& totals) {
       SE3(Eigen::Quaterniond(Eigen::AngleAxisd(-std::numbers::pi / 2, Eigen::Vector3d::UnitY())),
           Eigen::Vector3d(1.0, 0.5, -0.3));
   const std::vector<Member> members = make_members(o, trial, world_from_camera, rng);
-  Session session = make_session(members, world_from_camera);
+  Session session = make_session(members, world_from_camera, o.fuser_gating);
   const int steps = static_cast<int>(o.duration * o.rate);
   const auto k_count = static_cast<int>(members.size());
   std::vector<SE3> heads(members.size());
@@ -377,8 +380,7 @@ void run_trial(const MultiUserOptions& o, int trial, Totals& totals) {
   for (int a = 0; a < k_count; ++a) {
     totals.calibration_error[a] += members[a].calibration_error / o.trials;
     for (int b = a + 1; b < k_count; ++b, ++pair) {
-      const auto [p, r] =
-          predict_pair(o, members[a], a, paths[a], members[b], b, paths[b], rng);
+      const auto [p, r] = predict_pair(o, members[a], a, paths[a], members[b], b, paths[b], rng);
       totals.pair_predicted_position[pair] += p / o.trials;
       totals.pair_predicted_rotation[pair] += r / o.trials;
     }
