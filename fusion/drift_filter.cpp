@@ -104,7 +104,8 @@ DriftEstimate correct_drift(const DriftEstimate& predicted, const SE3& measured_
 }
 
 DriftUpdate update_drift(const DriftEstimate& estimate, const SE3& measured_drift,
-                         const DriftFilterOptions& options, double steps) {
+                         const DriftFilterOptions& options, double steps,
+                         const Eigen::Vector3d& gate_point) {
   DriftUpdate u;
   if (!estimate.initialized || estimate.consecutive_rejections >= options.reset_after_rejections) {
     u.estimate = initialize_drift(measured_drift, options);
@@ -112,7 +113,9 @@ DriftUpdate update_drift(const DriftEstimate& estimate, const SE3& measured_drif
     return u;
   }
   const DriftEstimate predicted = predict_drift(estimate, options, steps);
-  u.translation_d2 = translation_mahalanobis2(predicted, measured_drift.translation(), options);
+  DriftEstimate at_point = predicted;  // the prediction moved to where the pose was measured
+  at_point.translation = predicted.drift() * gate_point;
+  u.translation_d2 = translation_mahalanobis2(at_point, measured_drift * gate_point, options);
   u.rotation_d2 = rotation_mahalanobis2(predicted, coefficients(measured_drift), options);
   if (options.gating &&
       (u.translation_d2 > options.gate_chi2 || u.rotation_d2 > options.gate_chi2)) {

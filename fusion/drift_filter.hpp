@@ -92,9 +92,15 @@ DriftEstimate correct_drift(const DriftEstimate& predicted, const SE3& measured_
                             const DriftFilterOptions& options);
 
 // One full step: initialize, or predict + gate + correct. The paper's filter is this with
-// options.gating = false.
+// options.gating = false. The translation is gated where the global pose measured it:
+// `gate_point` is the tracked device's position in the xr frame (xr_from_head's translation),
+// and the innovation is that of D * gate_point. At D's origin instead, a rotation error of the
+// measurement moves D's translation by the angle times the device's distance from the origin
+// (0.005 rad at 20 m: 0.1 m), which translation_sigma (the noise of a global pose's position)
+// does not describe, and good poses far from the origin are gated out.
 DriftUpdate update_drift(const DriftEstimate& estimate, const SE3& measured_drift,
-                         const DriftFilterOptions& options, double steps = 1.0);
+                         const DriftFilterOptions& options, double steps = 1.0,
+                         const Eigen::Vector3d& gate_point = Eigen::Vector3d::Zero());
 
 // Steady-state Kalman gain of the identity random-walk model: the fraction of each innovation
 // that is applied once the filter has converged (documentation and tests).

@@ -31,8 +31,7 @@ SE3 step_toward(const SE3& current, const SE3& target, double max_distance, doub
   return SE3(interpolate(current.so3(), target.so3(), fraction), current.translation() + delta);
 }
 
-DriftFuser::DriftFuser(FuserOptions options)
-    : options_(options), buffer_(options_.buffer_seconds) {
+DriftFuser::DriftFuser(FuserOptions options) : options_(options), buffer_(options_.buffer_seconds) {
   options_.check();
 }
 
@@ -108,7 +107,7 @@ GateDecision DriftFuser::push_global_pose(double time, const SE3& world_from_hea
         std::clamp((time - last_accepted_time_) / global_period_, 1.0, options_.max_gap_periods);
   }
   const DriftUpdate update = update_drift(estimate_, measure_drift(world_from_head, *xr_from_head),
-                                          options_.filter, steps);
+                                          options_.filter, steps, xr_from_head->translation());
   estimate_ = update.estimate;
   switch (update.decision) {
     case GateDecision::kRejected:

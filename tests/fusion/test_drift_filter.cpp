@@ -98,6 +98,24 @@ TEST(DriftFilter, GatingRejectsAnOutlierAndCounts) {
   EXPECT_GT(translation_distance(p.estimate.drift(), truth), 0.01);
 }
 
+// A global pose 20 m from D's origin with its position exact and its rotation 0.46 deg off (a
+// localizer's ordinary rotation noise): D's translation moves by 0.008 * 20 m = 16 cm, but the
+// device was measured where it is. Gated at the device it is taken; at D's origin it was not.
+TEST(DriftFilter, GatesTheTranslationWhereTheDeviceIs) {
+  const DriftFilterOptions options;
+  DriftEstimate e = initialize_drift(SE3(), options);
+  for (int i = 0; i < 30; ++i)
+    e = update_drift(e, SE3(), options).estimate;
+  const SE3 xr_from_head = make_pose(0.0, {20.0, 0.0, 0.0});
+  const SE3 world_from_head = xr_from_head * make_pose(0.008, {0.0, 0.0, 0.0});
+  const SE3 measured = measure_drift(world_from_head, xr_from_head);
+  EXPECT_GT(measured.translation().norm(), 0.15);
+  EXPECT_EQ(update_drift(e, measured, options).decision, GateDecision::kRejected);
+  const DriftUpdate u = update_drift(e, measured, options, 1.0, xr_from_head.translation());
+  EXPECT_EQ(u.decision, GateDecision::kAccepted);
+  EXPECT_LT(u.translation_d2, 1e-12);
+}
+
 TEST(DriftFilter, RepeatedRejectionsReinitialize) {
   DriftFilterOptions options;
   options.reset_after_rejections = 3;
