@@ -374,6 +374,7 @@ void run_trial(const MultiUserOptions& o, int trial, Totals& totals) {
     }
   }
   std::vector<ErrorPaths> paths;
+  paths.reserve(static_cast<std::size_t>(k_count));
   for (int a = 0; a < k_count; ++a)
     paths.push_back(error_paths(o, members[a], a, world_from_camera, rng));
   std::size_t pair = 0;

@@ -88,7 +88,7 @@ TEST_F(TwoUsers, UnknownOutOfOrderAndCountedNeverFatal) {
 // sequence number) must not freeze a user's stream; a restarted sender is taken back.
 TEST_F(TwoUsers, OneAbsurdMessageDoesNotFreezeAUser) {
   session.push_head("vive", message(1.0, 1, SE3()), 0.0, out);
-  session.push_head("vive", message(1e9, 2, SE3()), 0.01, out);     // far future
+  session.push_head("vive", message(1e9, 2, SE3()), 0.01, out);      // far future
   session.push_head("vive", message(1.02, 5000, SE3()), 0.02, out);  // sequence jump
   EXPECT_EQ(session.stats().implausible, 2u);
   out.clear();
