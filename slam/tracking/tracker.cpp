@@ -499,7 +499,8 @@ bool Tracker::need_keyframe() const {
   const bool c1b =
       since_kf >= static_cast<std::uint64_t>(options_.min_frames_between_keyframes) && mapping_idle;
   const bool c1c = matches_inliers_ < ref_matches * 0.25 || need_close;
-  // The reference is a keyframe this tracker made from a far weaker frame (a blurred one).
+  // The reference is a keyframe this tracker made from a far weaker frame (blurred, or at the
+  // edge of the map): TrackingOptions::weak_reference_ratio.
   const bool weak_reference =
       options_.weak_reference_ratio > 0.0 && reference_ == last_keyframe_ &&
       matches_inliers_ > options_.weak_reference_ratio * last_keyframe_inliers_;
