@@ -40,12 +40,34 @@ SE3 yaw(double angle, const Eigen::Vector3d& t = Eigen::Vector3d::Zero()) {
   return SE3(Eigen::Quaterniond(Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ())), t);
 }
 
-SE3 noisy(const SE3& pose, std::mt19937& rng, double position_sigma, double rotation_sigma) {
+Vector6d gaussian(std::mt19937& rng, double position_sigma, double rotation_sigma) {
   std::normal_distribution<double> n(0.0, 1.0);
   Vector6d xi;
   xi << Eigen::Vector3d(n(rng), n(rng), n(rng)) * position_sigma,
       Eigen::Vector3d(n(rng), n(rng), n(rng)) * rotation_sigma;
-  return pose * SE3::exp(xi);
+  return xi;
+}
+
+SE3 noisy(const SE3& pose, std::mt19937& rng, double position_sigma, double rotation_sigma) {
+  return pose * SE3::exp(gaussian(rng, position_sigma, rotation_sigma));
+}
+
+// The localizer's noise on a global pose (right perturbation; rotation global_sigma / 3 rad).
+Vector6d global_noise(const MultiUserOptions& o, std::mt19937& rng) {
+  return gaussian(rng, o.global_sigma, o.global_sigma / 3.0);
+}
+
+// Headset samples between two global poses of a drift-corrected system; 0: it gets none.
+int global_every(const MultiUserOptions& o, const SystemModel& model) {
+  if (!(model.global_rate > 0.0)) return 0;
+  return std::max(1, static_cast<int>(std::lround(o.rate / model.global_rate)));
+}
+
+// The fusers of the session, and the filter the prediction linearizes.
+FuserOptions session_fuser(const MultiUserOptions& o) {
+  FuserOptions fuser;
+  fuser.filter.gating = o.fuser_gating;
+  return fuser;
 }
 
 SE3 walk_pose(const Trajectory& walk, double t) {
@@ -141,7 +163,7 @@ std::vector<Member> make_members(const MultiUserOptions& o, int trial, const SE3
 }
 
 Session make_session(const std::vector<Member>& members, const SE3& world_from_camera,
-                     bool gating) {
+                     const FuserOptions& fuser) {
   SessionConfig config;
   config.anchor.world_from_camera = world_from_camera;
   std::vector<he::CalibrationFile> calibrations;
@@ -156,8 +178,6 @@ Session make_session(const std::vector<Member>& members, const SE3& world_from_c
     config.participants.push_back(p);
     calibrations.push_back(m.calibration);
   }
-  FuserOptions fuser;
-  fuser.filter.gating = gating;
   return Session(config, calibrations, fuser);
 }
 
@@ -179,14 +199,6 @@ std::vector<double> prediction_times(const MultiUserOptions& o) {
   for (double t = 2.0; t < o.duration; t += 1.0)
     times.push_back(t);
   return times;
-}
-
-Vector6d gaussian(std::mt19937& rng, double position_sigma, double rotation_sigma) {
-  std::normal_distribution<double> n(0.0, 1.0);
-  Vector6d xi;
-  xi << Eigen::Vector3d(n(rng), n(rng), n(rng)) * position_sigma,
-      Eigen::Vector3d(n(rng), n(rng), n(rng)) * rotation_sigma;
-  return xi;
 }
 
 // Calibration only: estimated vr_from_camera = truth * Exp(eps), eps ~ the calibration's
@@ -214,7 +226,7 @@ ErrorPaths calibration_error_paths(const Member& m, std::size_t times, const SE3
 ErrorPaths fuser_error_paths(const MultiUserOptions& o, const Member& m, int k,
                              const std::vector<double>& times, const FuserOptions& fuser,
                              std::mt19937& rng) {
-  const int every = std::max(1, static_cast<int>(std::lround(o.rate / m.model.global_rate)));
+  const int every = global_every(o, m.model);
   const int steps = static_cast<int>(o.duration * o.rate);
   std::vector<double> at;
   std::vector<Matrix6d> adjoint;
@@ -236,9 +248,8 @@ ErrorPaths fuser_error_paths(const MultiUserOptions& o, const Member& m, int k,
       // A head published at the update's time is placed before the global pose arrives.
       for (; next < times.size() && times[next] <= at[u]; ++next)
         path[next] = u == 0 ? e : Vector6d(e - moved(at[u - 1], times[next]));
-      const Vector6d d =
-          adjoint[u] * (gaussian(rng, o.global_sigma, o.global_sigma / 3.0) -
-                        gaussian(rng, m.model.position_noise, m.model.rotation_noise));
+      const Vector6d d = adjoint[u] * (global_noise(o, rng) - gaussian(rng, m.model.position_noise,
+                                                                       m.model.rotation_noise));
       if (u == 0) {
         e = d;
         p = r;
@@ -258,7 +269,7 @@ ErrorPaths fuser_error_paths(const MultiUserOptions& o, const Member& m, int k,
 ErrorPaths error_paths(const MultiUserOptions& o, const Member& m, int k,
                        const SE3& world_from_camera, std::mt19937& rng) {
   const std::vector<double> times = prediction_times(o);
-  if (m.model.global_rate > 0.0) return fuser_error_paths(o, m, k, times, FuserOptions{}, rng);
+  if (global_every(o, m.model) > 0) return fuser_error_paths(o, m, k, times, session_fuser(o), rng);
   return calibration_error_paths(m, times.size(), world_from_camera, rng);
 }
 
@@ -336,13 +347,9 @@ SE3 feed(const MultiUserOptions& o, const Member& m, int k, int i, Session& sess
     if (record_locked && n == 0 && k < 2)
       (k == 0 ? totals.locked_a : totals.locked_b).push_back({t, reported});
   }
-  const int every = m.model.global_rate > 0.0
-                        ? std::max(1, static_cast<int>(std::lround(o.rate / m.model.global_rate)))
-                        : 0;
-  if (every > 0 && i % every == 0) {
-    session.push_global(
-        m.id, message(t, i, noisy(truth.head, rng, o.global_sigma, o.global_sigma / 3.0)), t);
-  }
+  const int every = global_every(o, m.model);
+  if (every > 0 && i % every == 0)
+    session.push_global(m.id, message(t, i, truth.head * SE3::exp(global_noise(o, rng))), t);
   return head;
 }
 
@@ -354,7 +361,7 @@ void run_trial(const MultiUserOptions& o, int trial, Totals& totals) {
       SE3(Eigen::Quaterniond(Eigen::AngleAxisd(-std::numbers::pi / 2, Eigen::Vector3d::UnitY())),
           Eigen::Vector3d(1.0, 0.5, -0.3));
   const std::vector<Member> members = make_members(o, trial, world_from_camera, rng);
-  Session session = make_session(members, world_from_camera, o.fuser_gating);
+  Session session = make_session(members, world_from_camera, session_fuser(o));
   const int steps = static_cast<int>(o.duration * o.rate);
   const auto k_count = static_cast<int>(members.size());
   std::vector<SE3> heads(members.size());
