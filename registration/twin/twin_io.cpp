@@ -50,6 +50,8 @@ void write_camera_settings(const std::filesystem::path& path, const PinholeCamer
       << "\nCamera1.k3: " << fmt("%.9f", c.distortion[4]) << "\n\n"
       << "Camera.width: " << c.width << "\nCamera.height: " << c.height << "\n\n"
       << "Camera.fps: " << static_cast<int>(std::lround(fps)) << "\n\nCamera.RGB: 1\n\n"
+      << "# coloc: rendered with a global shutter (no rolling-shutter readout to estimate).\n"
+      << "Camera.readoutTime: 0\n\n"
       << "# Close/Far threshold. Baseline times.\nStereo.ThDepth: 40.0\nStereo.b: "
       << fmt("%.4f", depth.baseline) << "\n\n# Depth map values factor (millimetres)\n"
       << "RGBD.DepthMapFactor: 1000.0\n\n"

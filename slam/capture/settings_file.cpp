@@ -41,7 +41,9 @@ void write_settings_file(const fs::path& path, const SettingsFileContent& c) {
     << "\nCamera1.k2: " << num(k.distortion[1]) << "\nCamera1.p1: " << num(k.distortion[2])
     << "\nCamera1.p2: " << num(k.distortion[3]) << "\nCamera1.k3: " << num(k.distortion[4])
     << "\n\nCamera.width: " << k.width << "\nCamera.height: " << k.height
-    << "\n\nCamera.fps: " << std::lround(c.fps) << "\nCamera.RGB: " << (c.rgb ? 1 : 0) << "\n";
+    << "\n\nCamera.fps: " << std::lround(c.fps) << "\nCamera.RGB: " << (c.rgb ? 1 : 0) << "\n"
+    << "\n# coloc: the D455's colour camera has a global shutter (no readout to estimate).\n"
+    << "Camera.readoutTime: 0\n";
   if (c.depth_map_factor > 0)
     o << "\nStereo.ThDepth: 40.0\nStereo.b: " << num(c.baseline_m > 0 ? c.baseline_m : 0.05)
       << "\nRGBD.DepthMapFactor: " << num(c.depth_map_factor) << "\n";

@@ -11,8 +11,8 @@
 #include "slam/features/descriptor.hpp"
 #include "slam/features/orb_extractor.hpp"
 #include "slam/frame/frame.hpp"
-#include "slam/optim/pose_optimizer.hpp"
 #include "slam/matching/search.hpp"
+#include "slam/optim/pose_optimizer.hpp"
 
 namespace coloc::eval {
 namespace {
@@ -94,7 +94,7 @@ void compensate_with_truth(Frame& cur, const Trajectory& gt, int rows,
   if (!before || !after) return;
   const Eigen::Vector3d omega =
       (before->so3().inverse() * after->so3()).log() / (2.0 * kRateHalfInterval);
-  cur.compensate_rolling_shutter(omega, rows);
+  cur.compensate_rolling_shutter(omega, rows, cur.geometry().readout);
 }
 
 // Solves cur's pose from prev (at its truth); none when too few matches.
@@ -160,7 +160,7 @@ FrameLimitResult measure_frame_limit(const dataset::Sequence& sequence,
   if (!settings.depth)
     throw Error("settings without depth (Camera.bf)", {.file = settings.source.string()});
   FrameLimitResult result;
-  result.readout = options.readout.value_or(settings.readout_time);
+  result.readout = options.readout.value_or(settings.readout_time.value_or(0.0));
   const auto& orb = settings.orb;
   slam::features::OrbExtractor extractor(slam::features::ExtractorOptions{
       orb.n_features, orb.scale_factor, orb.n_levels, orb.ini_th_fast, orb.min_th_fast});

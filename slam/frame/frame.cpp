@@ -149,9 +149,30 @@ std::vector<std::size_t> Frame::features_in_area(double x, double y, double radi
   return out;
 }
 
-void Frame::compensate_rolling_shutter(const Eigen::Vector3d& omega_cam, int image_rows) {
+void Frame::compensate_rolling_shutter(const Eigen::Vector3d& omega_cam, int image_rows,
+                                       double readout) {
+  shutter_rate = omega_cam;
+  shutter_rows = image_rows;
+  shutter_readout = readout;
+  compensate(omega_cam, readout);
+}
+
+void Frame::set_shutter_readout(double readout) {
+  if (shutter_rate.isZero() || shutter_rows <= 0 || readout == shutter_readout) return;
+  // Both compensations turn each bearing about the same axis: the difference is one more turn.
+  compensate(shutter_rate, readout - shutter_readout);
+  shutter_readout = readout;
+}
+
+Eigen::Vector3d Frame::shutter_shear(std::size_t i) const {
+  if (shutter_rows <= 0) return Eigen::Vector3d::Zero();
+  return shutter_rate * row_time(features.keypoints[i].y, {1.0, shutter_rows});
+}
+
+void Frame::compensate(const Eigen::Vector3d& omega_cam, double readout) {
+  if (readout == 0.0 || shutter_rows <= 0) return;
   const FrameGeometry& g = *geometry_;
-  frame::compensate_rolling_shutter(features, {g.readout, image_rows}, omega_cam, g.fx, g.fy, g.cx,
+  frame::compensate_rolling_shutter(features, {readout, shutter_rows}, omega_cam, g.fx, g.fy, g.cx,
                                     g.cy);
   for (std::size_t i = 0; i < features.size(); ++i) {
     if (depth[i] > 0.0f)

@@ -102,13 +102,26 @@ class Frame {
   std::vector<std::size_t> features_in_area(double x, double y, double radius, int min_level = 0,
                                             int max_level = -1) const;
   std::size_t tracked_count() const;  // keypoints with a valid point that are not outliers
-  // Rolling-shutter compensation (slam/frame/rolling_shutter.hpp) with the geometry's readout
-  // time and the camera's angular velocity (rad/s, camera frame): moves the undistorted
-  // keypoints, their virtual right coordinates and the grid. Apply once per frame.
-  void compensate_rolling_shutter(const Eigen::Vector3d& omega_cam, int image_rows);
+  // Rolling-shutter compensation (slam/frame/rolling_shutter.hpp) with a readout time (seconds)
+  // and the camera's angular velocity (rad/s, camera frame): moves the undistorted keypoints,
+  // their virtual right coordinates and the grid, and records what it applied (shutter_*; with
+  // readout 0 only the record, for a readout estimated later). Apply once per frame.
+  void compensate_rolling_shutter(const Eigen::Vector3d& omega_cam, int image_rows, double readout);
+  // Compensates the keypoints again for another readout time, with the recorded rate (a
+  // readout estimated online has changed). Nothing moves without a recorded rate.
+  void set_shutter_readout(double readout);
+  // How keypoint i's observation moves per second of readout change (optim::shutter_shifted).
+  Eigen::Vector3d shutter_shear(std::size_t i) const;
+
+  // The compensation applied: angular rate (rad/s, camera frame; zero = none), readout time
+  // (seconds) and image rows. Not part of a saved map: a loaded keyframe has no rate.
+  Eigen::Vector3d shutter_rate = Eigen::Vector3d::Zero();
+  double shutter_readout = 0.0;
+  int shutter_rows = 0;
 
  private:
   void assign_grid();
+  void compensate(const Eigen::Vector3d& omega_cam, double readout);
   std::shared_ptr<const FrameGeometry> geometry_;  // shared by all frames of a run
   std::vector<std::vector<std::uint32_t>> grid_;   // row-major cells of keypoint indices
 };

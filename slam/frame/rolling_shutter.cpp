@@ -9,7 +9,8 @@ namespace coloc::slam::frame {
 void compensate_rolling_shutter(features::OrbFeatures& features, const RollingShutter& shutter,
                                 const Eigen::Vector3d& omega_cam, double fx, double fy, double cx,
                                 double cy) {
-  if (!(shutter.readout > 0.0) || shutter.rows <= 0) return;
+  // A negative readout undoes a compensation (Frame::set_shutter_readout).
+  if (shutter.readout == 0.0 || shutter.rows <= 0) return;
   for (features::Keypoint& kp : features.keypoints) {
     const double tau = row_time(kp.y, shutter);
     const Eigen::Vector3d bearing((kp.ux - cx) / fx, (kp.uy - cy) / fy, 1.0);

@@ -117,7 +117,9 @@ void Localizer::start_tracking(int width, int height) {
   const features::OrbExtractor probe(options_.extractor);
   auto geometry = std::make_shared<frame::FrameGeometry>(frame::FrameGeometry::make(
       settings_.camera, settings_.depth->bf, settings_.depth->close_depth, probe.scale_factors()));
-  geometry->readout = settings_.readout_time;
+  // Settings without a readout: the one estimated while the map was made, if it was.
+  geometry->readout =
+      settings_.readout_time.value_or(map_.metadata.estimated_readout.value_or(0.0));
   geometry->check();
   geometry_ = geometry;
   // No keyframe sink: the tracker localizes only and its first frame relocalizes.

@@ -107,7 +107,19 @@ class Map {
   MapPoint* point(MapPointId id);
   const MapPoint* point(MapPointId id) const;
   const std::unordered_map<KeyframeId, Keyframe>& keyframes() const { return keyframes_; }
+  // Calls f(Keyframe&) for every keyframe (to change keyframes in place, never the set).
+  template <typename F>
+  void for_each_keyframe(F&& f) {
+    for (auto& [id, kf] : keyframes_)
+      f(kf);
+  }
   const std::unordered_map<MapPointId, MapPoint>& points() const { return points_; }
+  // Calls f(MapPoint&) for every point (to move points, never to add or erase them).
+  template <typename F>
+  void for_each_point(F&& f) {
+    for (auto& [id, p] : points_)
+      f(p);
+  }
   // cam_from_world of a keyframe, following erased keyframes through their parents.
   std::optional<SE3> keyframe_pose(KeyframeId id) const;
   std::size_t keyframe_count() const { return keyframes_.size(); }

@@ -58,6 +58,10 @@ struct MapMetadata {
   // document; empty for a map that was never registered. Entry `registration`, written only
   // when not empty (maps without it load as before).
   std::string registration;
+  // Seconds: the rolling-shutter readout estimated while mapping (settings without
+  // Camera.readoutTime), for localization with the same settings. Entry `estimated_readout`,
+  // written only when set.
+  std::optional<double> estimated_readout;
   // The camera model (with distortion) the keyframes' undistorted keypoints came from. Saved in
   // every `cameras` row; read back from the first one.
   std::optional<Camera> camera;

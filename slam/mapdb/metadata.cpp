@@ -65,6 +65,11 @@ MetadataEntries metadata_entries(const MapMetadata& m) {
   e["frame_name"] = m.frame_name;
   e["frame_transform"] = m.frame_from_slam ? sim3_text(*m.frame_from_slam) : "";
   if (!m.registration.empty()) e["registration"] = m.registration;
+  if (m.estimated_readout) {
+    char text[32];
+    const auto end = std::to_chars(text, text + sizeof text, *m.estimated_readout).ptr;
+    e["estimated_readout"] = std::string(text, end);  // shortest text that reads back exactly
+  }
   return e;
 }
 
@@ -111,6 +116,14 @@ MapMetadata parse_metadata(const MetadataEntries& entries, const std::filesystem
   if (!transform.empty()) m.frame_from_slam = parse_sim3(transform, file);
   if (const auto it = entries.find("registration"); it != entries.end())
     m.registration = it->second;
+  if (const auto it = entries.find("estimated_readout"); it != entries.end()) {
+    double v = -1.0;
+    const std::string& s = it->second;
+    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+    if (ec != std::errc() || end != s.data() + s.size() || !(v >= 0.0 && v < 1.0))
+      bad_entry(file, "estimated_readout", "'" + s + "' is not a readout time in [0, 1) s");
+    m.estimated_readout = v;
+  }
   return m;
 }
 

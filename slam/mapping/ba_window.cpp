@@ -41,6 +41,7 @@ BaWindow make_window(const map::Map& m, const std::vector<KeyframeId>& keyframes
       o.pixel = f.pixel(idx);
       o.u_right = f.u_right[idx];
       o.inv_sigma2 = 1.0 / g.level_sigma2[static_cast<std::size_t>(f.level(idx))];
+      o.shear = f.shutter_shear(idx);
       w.problem.observations.push_back(o);
       w.observation_ids.emplace_back(w.point_ids[pi], k);
     }

@@ -20,6 +20,10 @@ void LocalMappingOptions::check() const {
   if (!(fusion_radius > 0.0)) throw Error("LocalMappingOptions.fusion_radius must be > 0");
   if (!(redundancy > 0.0 && redundancy <= 1.0))
     throw Error("LocalMappingOptions.redundancy must be in (0, 1]");
+  if (!(readout_step > 0.0)) throw Error("LocalMappingOptions.readout_step must be > 0");
+  if (!(readout_publish >= 0.0)) throw Error("LocalMappingOptions.readout_publish must be >= 0");
+  if (!(readout_max > 0.0 && readout_max < 1.0))
+    throw Error("LocalMappingOptions.readout_max must be in (0, 1) seconds");
   ba.check();
 }
 

@@ -14,6 +14,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -38,6 +39,13 @@ struct LocalMappingOptions {
   optim::BundleOptions ba;
   bool keyframe_culling = true;
   double redundancy = 0.9;  // a keyframe whose points are this often seen by 3 others is culled
+  // Rolling-shutter readout unknown (SharedMap::estimate_readout): the local BA estimates it
+  // with the poses. Each BA may move it by about `readout_step` seconds (its prior); the
+  // keyframes are compensated again once it has moved `readout_publish` from what they use.
+  bool estimate_readout = true;
+  double readout_step = 0.002;
+  double readout_publish = 0.0001;
+  double readout_max = 0.05;  // seconds: the estimate stays within [0, readout_max]
   // Throws coloc::Error naming the first invalid field.
   void check() const;
 };
@@ -104,6 +112,8 @@ class LocalMapper final : public map::KeyframeSink {
   void cull_recent_points(KeyframeId current);
   void fuse_neighbours(KeyframeId current);
   void local_bundle_adjustment(KeyframeId current);
+  // Under the map lock: the readout the last BA estimated (SharedMap::estimate_readout).
+  void update_readout(double estimate);
   void cull_keyframes(KeyframeId current);
 
   map::SharedMap& shared_;
@@ -112,6 +122,9 @@ class LocalMapper final : public map::KeyframeSink {
   double marker_size_;
   LocalMappingOptions options_;
   map::KeyframeSink* output_;
+  // Seconds, mapper thread only: the last BA's readout, published in shared_.readout once it
+  // moved far enough; starts from the published one (a continued map's).
+  std::optional<double> readout_estimate_;
   StageQueue<map::KeyframeMessage> queue_;
   std::thread thread_;
   std::atomic<bool> abort_ba_{false};

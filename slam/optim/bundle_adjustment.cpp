@@ -1,6 +1,7 @@
 #include "slam/optim/bundle_adjustment.hpp"
 
 #include <ceres/loss_function.h>
+#include <ceres/normal_prior.h>
 #include <ceres/problem.h>
 #include <ceres/solver.h>
 
@@ -64,6 +65,7 @@ bool PoseManifold::MinusJacobian(const double*, double* jacobian) const {
 
 namespace {
 
+// Returns false when the point is behind the camera (the residual is then a constant).
 template <int kRows, typename Residual, typename Obs>
 bool evaluate_cost(const Intrinsics& k, const Obs& obs, double inv_sigma,
                    double const* const* params, double* residuals, double** jacobians,
@@ -81,7 +83,7 @@ bool evaluate_cost(const Intrinsics& k, const Obs& obs, double inv_sigma,
       if (jacobians[0]) std::fill(jacobians[0], jacobians[0] + std::ptrdiff_t{kRows} * 7, 0.0);
       if (jacobians[1]) std::fill(jacobians[1], jacobians[1] + std::ptrdiff_t{kRows} * 3, 0.0);
     }
-    return true;
+    return false;
   }
   Eigen::Map<Eigen::Matrix<double, kRows, 1>> res(residuals);
   res = inv_sigma * r;
@@ -112,29 +114,71 @@ class AbortCallback : public ceres::IterationCallback {
 
 }  // namespace
 
+namespace {
+
+bool stereo_fn(const Intrinsics& k, const Eigen::Vector3d& p, const Eigen::Vector3d& o,
+               Eigen::Vector3d& r, Eigen::Matrix3d* j) {
+  return stereo_residual(k, p, o, r, j);
+}
+
+bool mono_fn(const Intrinsics& k, const Eigen::Vector3d& p, const Eigen::Vector2d& o,
+             Eigen::Vector2d& r, Eigen::Matrix<double, 2, 3>* j) {
+  return mono_residual(k, p, o, r, j);
+}
+
+}  // namespace
+
 bool StereoReprojectionCost::Evaluate(double const* const* parameters, double* residuals,
                                       double** jacobians) const {
-  return evaluate_cost<3>(
-      k_, obs_, inv_sigma_, parameters, residuals, jacobians,
-      [](const Intrinsics& k, const Eigen::Vector3d& p, const Eigen::Vector3d& o,
-         Eigen::Vector3d& r, Eigen::Matrix3d* j) { return stereo_residual(k, p, o, r, j); });
+  evaluate_cost<3>(k_, obs_, inv_sigma_, parameters, residuals, jacobians, stereo_fn);
+  return true;
 }
 
 bool MonoReprojectionCost::Evaluate(double const* const* parameters, double* residuals,
                                     double** jacobians) const {
-  return evaluate_cost<2>(
-      k_, obs_, inv_sigma_, parameters, residuals, jacobians,
-      [](const Intrinsics& k, const Eigen::Vector3d& p, const Eigen::Vector2d& o,
-         Eigen::Vector2d& r,
-         Eigen::Matrix<double, 2, 3>* j) { return mono_residual(k, p, o, r, j); });
+  evaluate_cost<2>(k_, obs_, inv_sigma_, parameters, residuals, jacobians, mono_fn);
+  return true;
 }
+
+template <int kRows>
+bool ShutterReprojectionCost<kRows>::Evaluate(double const* const* parameters, double* residuals,
+                                              double** jacobians) const {
+  const bool want_delta = jacobians && jacobians[2];
+  Eigen::Vector3d d_obs;
+  const Eigen::Vector3d obs =
+      shutter_shifted(k_, obs_, shear_, parameters[2][0], want_delta ? &d_obs : nullptr);
+  bool in_front = false;
+  if constexpr (kRows == 3) {
+    in_front = evaluate_cost<3>(k_, obs, inv_sigma_, parameters, residuals, jacobians, stereo_fn);
+  } else {
+    in_front = evaluate_cost<2>(k_, Eigen::Vector2d(obs.head<2>()), inv_sigma_, parameters,
+                                residuals, jacobians, mono_fn);
+  }
+  if (want_delta) {
+    // residual = observed - predicted: it moves with the observation.
+    for (int i = 0; i < kRows; ++i)
+      jacobians[2][i] = in_front ? inv_sigma_ * d_obs[i] : 0.0;
+  }
+  return true;
+}
+
+template class ShutterReprojectionCost<2>;
+template class ShutterReprojectionCost<3>;
 
 namespace {
 
-// One Ceres solve over the observations not flagged in `skip`. Returns iterations run.
-int solve(BundleProblem& problem, std::vector<double>& pose_params, const Intrinsics& k,
-          const BundleOptions& options, const std::vector<std::uint8_t>& skip, bool robust,
-          int iterations, const std::atomic<bool>* abort, BundleResult& result) {
+// The observation (u, v, u_r) as the readout change `delta` has it.
+Eigen::Vector3d observed(const Intrinsics& k, const BundleProblem::Observation& o, double delta) {
+  Eigen::Vector3d raw(o.pixel.x(), o.pixel.y(), o.u_right);
+  if (delta == 0.0 || o.shear.isZero()) return raw;
+  return shutter_shifted(k, raw, o.shear, delta, nullptr);
+}
+
+// One Ceres solve over the observations not flagged in `skip`; `delta`, the readout change, is
+// a parameter when the problem estimates the readout. Returns iterations run.
+int solve(BundleProblem& problem, std::vector<double>& pose_params, double& delta,
+          const Intrinsics& k, const BundleOptions& options, const std::vector<std::uint8_t>& skip,
+          bool robust, int iterations, const std::atomic<bool>* abort, BundleResult& result) {
   ceres::Problem::Options popts;
   popts.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem ceres_problem(popts);
@@ -147,13 +191,21 @@ int solve(BundleProblem& problem, std::vector<double>& pose_params, const Intrin
     double* point = problem.points[o.point].data();
     const double inv_sigma = std::sqrt(o.inv_sigma2);
     ceres::LossFunction* loss = nullptr;
-    if (o.u_right >= 0.0) {
-      if (robust) loss = new ceres::HuberLoss(std::sqrt(options.chi2_stereo));
+    const bool stereo = o.u_right >= 0.0;
+    if (robust)
+      loss = new ceres::HuberLoss(std::sqrt(stereo ? options.chi2_stereo : options.chi2_mono));
+    if (problem.readout.estimate && !o.shear.isZero()) {
+      const Eigen::Vector3d obs(o.pixel.x(), o.pixel.y(), o.u_right);
+      ceres::CostFunction* cost =
+          stereo ? static_cast<ceres::CostFunction*>(
+                       new ShutterReprojectionCost<3>(k, obs, o.shear, inv_sigma))
+                 : new ShutterReprojectionCost<2>(k, obs, o.shear, inv_sigma);
+      ceres_problem.AddResidualBlock(cost, loss, pose, point, &delta);
+    } else if (stereo) {
       ceres_problem.AddResidualBlock(
           new StereoReprojectionCost(k, {o.pixel.x(), o.pixel.y(), o.u_right}, inv_sigma), loss,
           pose, point);
     } else {
-      if (robust) loss = new ceres::HuberLoss(std::sqrt(options.chi2_mono));
       ceres_problem.AddResidualBlock(new MonoReprojectionCost(k, o.pixel, inv_sigma), loss, pose,
                                      point);
     }
@@ -164,6 +216,16 @@ int solve(BundleProblem& problem, std::vector<double>& pose_params, const Intrin
     }
   }
   if (ceres_problem.NumResidualBlocks() == 0) return 0;
+  if (ceres_problem.HasParameterBlock(&delta)) {
+    const BundleProblem::Readout& r = problem.readout;
+    const Eigen::Matrix<double, 1, 1> a =
+        Eigen::Matrix<double, 1, 1>::Constant(1.0 / r.prior_sigma);
+    ceres_problem.AddResidualBlock(
+        new ceres::NormalPrior(a, Eigen::VectorXd::Constant(1, r.prior - r.current)), nullptr,
+        &delta);
+    ceres_problem.SetParameterLowerBound(&delta, 0, r.min - r.current);
+    ceres_problem.SetParameterUpperBound(&delta, 0, r.max - r.current);
+  }
   ceres::Solver::Options sopts;
   sopts.linear_solver_type = ceres::SPARSE_SCHUR;
   sopts.max_num_iterations = iterations;
@@ -181,22 +243,22 @@ int solve(BundleProblem& problem, std::vector<double>& pose_params, const Intrin
 // Flags (never unflags) the observations beyond the chi2 thresholds at the current estimate,
 // and those behind their camera, as ORB-SLAM does.
 void flag_outliers(const BundleProblem& problem, const std::vector<double>& pose_params,
-                   const Intrinsics& k, const BundleOptions& options,
+                   double delta, const Intrinsics& k, const BundleOptions& options,
                    std::vector<std::uint8_t>& outlier) {
   for (std::size_t i = 0; i < problem.observations.size(); ++i) {
     const auto& o = problem.observations[i];
     const SE3 pose = pose_from_array(&pose_params[std::size_t{7} * o.pose]);
     const Eigen::Vector3d p = pose * problem.points[o.point];
+    const Eigen::Vector3d obs = observed(k, o, delta);
     double chi2 = -1.0;
     bool bad = false;
     if (o.u_right >= 0.0) {
       Eigen::Vector3d r;
-      if (stereo_residual(k, p, {o.pixel.x(), o.pixel.y(), o.u_right}, r, nullptr))
-        chi2 = r.squaredNorm() * o.inv_sigma2;
+      if (stereo_residual(k, p, obs, r, nullptr)) chi2 = r.squaredNorm() * o.inv_sigma2;
       bad = chi2 < 0.0 || chi2 > options.chi2_stereo;
     } else {
       Eigen::Vector2d r;
-      if (mono_residual(k, p, o.pixel, r, nullptr)) chi2 = r.squaredNorm() * o.inv_sigma2;
+      if (mono_residual(k, p, obs.head<2>(), r, nullptr)) chi2 = r.squaredNorm() * o.inv_sigma2;
       bad = chi2 < 0.0 || chi2 > options.chi2_mono;
     }
     if (bad) outlier[i] = 1;
@@ -214,16 +276,18 @@ BundleResult bundle_adjust(BundleProblem& problem, const Intrinsics& k,
   for (std::size_t i = 0; i < problem.poses.size(); ++i)
     pose_to_array(problem.poses[i].cam_from_world, &pose_params[7 * i]);
 
-  result.iterations += solve(problem, pose_params, k, options, result.outlier, true,
+  double delta = 0.0;  // readout change (seconds), a parameter only when estimated
+  result.iterations += solve(problem, pose_params, delta, k, options, result.outlier, true,
                              options.iterations_robust, abort, result);
-  flag_outliers(problem, pose_params, k, options, result.outlier);
+  flag_outliers(problem, pose_params, delta, k, options, result.outlier);
   if (!(abort && abort->load()) && options.iterations_refine > 0) {
-    result.iterations += solve(problem, pose_params, k, options, result.outlier, false,
+    result.iterations += solve(problem, pose_params, delta, k, options, result.outlier, false,
                                options.iterations_refine, abort, result);
     // ORB-SLAM2 checks every observation again after the refinement: a wrong match the kernel
     // hid by splitting its error with the right ones shows once it pulls with full weight.
-    flag_outliers(problem, pose_params, k, options, result.outlier);
+    flag_outliers(problem, pose_params, delta, k, options, result.outlier);
   }
+  result.readout_change = delta;
   result.aborted = abort && abort->load();
   for (std::size_t i = 0; i < problem.poses.size(); ++i) {
     problem.poses[i].cam_from_world = pose_from_array(&pose_params[7 * i]);

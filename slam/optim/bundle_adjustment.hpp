@@ -32,10 +32,24 @@ struct BundleProblem {
     Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
     double u_right = -1.0;  // < 0: monocular
     double inv_sigma2 = 1.0;
+    // Rolling shutter (optim::shutter_shifted): how the observation moves with the readout
+    // time; zero when its keyframe's angular rate is unknown.
+    Eigen::Vector3d shear = Eigen::Vector3d::Zero();
+  };
+  // The rolling-shutter readout time as one more unknown, shared by every observation with a
+  // shear. The pixels are compensated with `current`; a prior (`prior`, `prior_sigma`) keeps
+  // one small window from moving it far: many windows in turn carry it where the data ask.
+  struct Readout {
+    bool estimate = false;
+    double current = 0.0;        // seconds
+    double prior = 0.0;          // seconds
+    double prior_sigma = 0.002;  // seconds
+    double min = 0.0, max = 0.05;
   };
   std::vector<Pose> poses;
   std::vector<Eigen::Vector3d> points;  // world, metres
   std::vector<Observation> observations;
+  Readout readout;
 };
 
 struct BundleOptions {
@@ -52,6 +66,7 @@ struct BundleResult {
   bool aborted = false;               // the abort flag was raised (results still usable)
   int iterations = 0;
   double initial_cost = 0.0, final_cost = 0.0;
+  double readout_change = 0.0;  // seconds, estimated readout - problem.readout.current
 };
 
 // Optimizes `problem` in place. `abort` (may be null) is polled between iterations.
@@ -94,6 +109,23 @@ class MonoReprojectionCost : public ceres::SizedCostFunction<2, 7, 3> {
  private:
   Intrinsics k_;
   Eigen::Vector2d obs_;
+  double inv_sigma_;
+};
+
+// The same with the readout change (seconds) as a third parameter (Observation::shear).
+template <int kRows>
+class ShutterReprojectionCost : public ceres::SizedCostFunction<kRows, 7, 3, 1> {
+ public:
+  ShutterReprojectionCost(const Intrinsics& k, const Eigen::Vector3d& obs,
+                          const Eigen::Vector3d& shear, double inv_sigma)
+      : k_(k), obs_(obs), shear_(shear), inv_sigma_(inv_sigma) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  Intrinsics k_;
+  Eigen::Vector3d obs_;  // (u, v, u_r); u_r unused with kRows = 2
+  Eigen::Vector3d shear_;
   double inv_sigma_;
 };
 

@@ -32,6 +32,23 @@ bool mono_residual(const Intrinsics& k, const Eigen::Vector3d& p, const Eigen::V
   return true;
 }
 
+Eigen::Vector3d shutter_shifted(const Intrinsics& k, const Eigen::Vector3d& obs,
+                                const Eigen::Vector3d& shear, double delta,
+                                Eigen::Vector3d* d_obs_d_delta) {
+  const Eigen::Vector3d bearing((obs.x() - k.cx) / k.fx, (obs.y() - k.cy) / k.fy, 1.0);
+  const Eigen::Vector3d q = SO3::exp(shear * delta) * bearing;
+  const double iz = 1.0 / q.z();
+  const double u = k.fx * q.x() * iz + k.cx;
+  const double v = k.fy * q.y() * iz + k.cy;
+  if (d_obs_d_delta) {
+    const Eigen::Vector3d dq = shear.cross(q);  // d/d delta of exp(shear delta) * bearing
+    const double du = k.fx * (dq.x() - q.x() * iz * dq.z()) * iz;
+    const double dv = k.fy * (dq.y() - q.y() * iz * dq.z()) * iz;
+    *d_obs_d_delta = Eigen::Vector3d(du, dv, du);
+  }
+  return {u, v, obs.z() + (u - obs.x())};
+}
+
 Eigen::Matrix<double, 3, 6> pcam_jacobian_pose(const Eigen::Vector3d& p_cam) {
   Eigen::Matrix<double, 3, 6> j;
   j.leftCols<3>().setIdentity();

@@ -24,6 +24,15 @@ bool stereo_residual(const Intrinsics& k, const Eigen::Vector3d& p_cam, const Ei
 bool mono_residual(const Intrinsics& k, const Eigen::Vector3d& p_cam, const Eigen::Vector2d& obs,
                    Eigen::Vector2d& residual, Eigen::Matrix<double, 2, 3>* d_residual_d_pcam);
 
+// A rolling-shutter observation (u, v, u_r) compensated with a readout time `delta` seconds
+// longer than the one it was compensated with: the bearing of (u, v) turned by
+// exp(shear * delta), u_r moved with u. `shear` (rad/s) is the camera's angular rate times the
+// keypoint's row offset from the middle row as a fraction of the rows (slam/frame/rolling_shutter).
+// d_obs_d_delta (may be null): the derivative at `delta`.
+Eigen::Vector3d shutter_shifted(const Intrinsics& k, const Eigen::Vector3d& obs,
+                                const Eigen::Vector3d& shear, double delta,
+                                Eigen::Vector3d* d_obs_d_delta);
+
 // d p_cam / d delta for the left perturbation: [I, -[p_cam]x] (3x6).
 Eigen::Matrix<double, 3, 6> pcam_jacobian_pose(const Eigen::Vector3d& p_cam);
 

@@ -244,8 +244,8 @@ Settings read_settings(const std::string& text, const std::filesystem::path& pat
   s.fps = keys.number("Camera.fps").value_or(s.fps);
   if (!(s.fps > 0.0 && s.fps <= 10000.0)) keys.fail("Camera.fps", "must be in (0, 10000] Hz");
   s.rgb_order = keys.integer("Camera.RGB").value_or(0) != 0;  // ORB-SLAM: absent = BGR
-  s.readout_time = keys.number("Camera.readoutTime").value_or(0.0);
-  if (!(s.readout_time >= 0.0 && s.readout_time < 1.0))
+  s.readout_time = keys.number("Camera.readoutTime");
+  if (s.readout_time && !(*s.readout_time >= 0.0 && *s.readout_time < 1.0))
     keys.fail("Camera.readoutTime", "must be in [0, 1) seconds");
   s.depth = read_depth(keys, s.file_version, intrinsic_matrix(s.camera)(0, 0));
   s.orb = read_orb(keys);

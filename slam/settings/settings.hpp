@@ -53,7 +53,8 @@ struct Settings {
   double fps = 30.0;
   // Camera.readoutTime (coloc's key): seconds from the first to the last row of a rolling-shutter
   // colour camera; 0 = global shutter. Tracking compensates it with the motion model's rotation.
-  double readout_time = 0.0;
+  // Absent (users' ORB-SLAM files): unknown, estimated online by local mapping.
+  std::optional<double> readout_time;
   // Camera.RGB: the channel order of the colour images the camera hands to tracking (1 RGB,
   // 0 BGR). Images decoded from files by OpenCV are BGR whatever this says.
   bool rgb_order = false;

@@ -127,6 +127,7 @@ settings::Settings SyntheticRgbdScene::settings() const {
   cam.cy = options_.cy;
   s.camera = cam;
   s.fps = options_.fps;
+  s.readout_time = 0.0;  // ray-cast: a global shutter
   settings::DepthSettings d;
   d.bf = 40.0;
   d.baseline = d.bf / options_.fx;

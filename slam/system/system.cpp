@@ -18,6 +18,9 @@ std::string SystemSummary::describe() const {
   std::ostringstream s;
   s << "frames " << frames << ", tracked " << tracked << ", lost " << lost << ", keyframes "
     << keyframes << ", map points " << points << ", relocalizations " << relocalizations
+    << (estimated_readout
+            ? fmt::format(", rolling-shutter readout estimated {:.1f} ms", 1e3 * *estimated_readout)
+            : std::string())
     << ", markers " << mapping.markers << "\n"
     << "tracking ms/frame: median " << total_ms.median << ", p99 " << total_ms.p99
     << " (extraction median " << extract_ms.median << ")\n";
@@ -59,6 +62,8 @@ System::System(const settings::Settings& settings, const bow::Vocabulary& vocabu
     detector_ = std::make_unique<markers::MarkerDetector>(d);
   }
   spdlog::info("slam options:\n{}", options_.describe());
+  // No readout in the settings: unknown, so estimated (a global-shutter camera says 0).
+  shared_->estimate_readout = !settings.readout_time && options_.mapping.estimate_readout;
   if (options_.loop.enabled)
     loop_closer_ = std::make_unique<loop::LoopCloser>(*shared_, options_.loop);
   mapper_ = std::make_unique<mapping::LocalMapper>(*shared_, vocabulary, detector_.get(),
@@ -85,7 +90,7 @@ void System::start_tracking(int width, int height) {
   const features::OrbExtractor probe(extractor_);
   auto geometry = std::make_shared<frame::FrameGeometry>(frame::FrameGeometry::make(
       settings_.camera, settings_.depth->bf, settings_.depth->close_depth, probe.scale_factors()));
-  geometry->readout = settings_.readout_time;
+  geometry->readout = settings_.readout_time.value_or(0.0);
   geometry->check();
   tracker_ = std::make_unique<tracking::Tracker>(*shared_, mapper_.get(), vocabulary_, geometry,
                                                  extractor_, settings_.camera, options_.tracking);
@@ -115,6 +120,7 @@ mapdb::MapMetadata System::metadata() const {
   m.camera = settings_.camera;
   m.frame_name = frame_name_;
   m.frame_from_slam = frame_from_slam_;
+  if (shared_->estimate_readout) m.estimated_readout = shared_->readout.load();
   return m;
 }
 
@@ -163,6 +169,9 @@ System::System(const settings::Settings& settings, const bow::Vocabulary& vocabu
   }
   frame_name_ = loaded.metadata.frame_name;
   frame_from_slam_ = loaded.metadata.frame_from_slam;
+  // Loaded keyframes carry no rate (their compensation stays); new ones start from the estimate.
+  if (shared_->estimate_readout && loaded.metadata.estimated_readout)
+    shared_->readout = *loaded.metadata.estimated_readout;
   if (loaded.metadata.camera && !same_intrinsics(*loaded.metadata.camera, settings.camera))
     spdlog::warn("{}: the map was made with another camera model; its keyframes keep theirs",
                  settings.source.string());
@@ -256,6 +265,7 @@ SystemSummary System::summary() const {
     s.points = shared_->map.point_count();
   }
   s.relocalizations = tracker_ ? tracker_->relocalizations() : 0;
+  if (shared_->estimate_readout) s.estimated_readout = shared_->readout.load();
   s.mapping = mapper_->stats();
   if (loop_closer_) s.loop = loop_closer_->stats();
   std::vector<double> total(extract_ms_.size());

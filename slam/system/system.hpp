@@ -34,6 +34,9 @@ struct SystemSummary {
   std::size_t frames = 0, tracked = 0, lost = 0;
   std::size_t keyframes = 0, points = 0;
   int relocalizations = 0;
+  // Seconds: the rolling-shutter readout local mapping estimated (settings without
+  // Camera.readoutTime); empty when the settings give it.
+  std::optional<double> estimated_readout;
   mapping::MappingStats mapping;
   loop::LoopStats loop;                            // empty when loop closing is off
   SampleStats extract_ms, track_ms, total_ms;      // per frame, tracking thread

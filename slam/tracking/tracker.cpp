@@ -204,7 +204,9 @@ bool Tracker::track_frame(int image_rows, double timestamp, TrackingResult& resu
 
 void Tracker::refine_rolling_shutter(int image_rows) {
   const double dt = current_.timestamp - last_.timestamp;
-  if (!(geometry_->readout > 0.0) || !(dt > 0.0)) return;
+  const bool estimated = shared_.estimate_readout;
+  const double readout = estimated ? shared_.readout.load() : geometry_->readout;
+  if (!(readout > 0.0 || estimated) || !(dt > 0.0)) return;
   // The rotation from the last frame to this one, tracked with the uncompensated keypoints: its
   // rate is the best estimate of the turn during this frame's readout (measured with `coloc eval
   // frame-limit`: the rate of the previous frame pair, one frame late, makes things worse).
@@ -212,13 +214,15 @@ void Tracker::refine_rolling_shutter(int image_rows) {
   const int before = static_cast<int>(current_.tracked_count());
   frame::Frame uncompensated = current_;
   const Eigen::Vector3d pose_rate = -current_from_last.so3().log() / dt;
-  current_.compensate_rolling_shutter(pose_rate, image_rows);
+  current_.compensate_rolling_shutter(pose_rate, image_rows, readout);
+  // Readout still 0 while it is estimated: only the rate is recorded, for local mapping.
+  if (readout == 0.0) return;
   int after = matching::optimize_frame_pose(current_, shared_.map);
   if (options_.rolling_shutter_rate_sigma > 0.0) {
     // The two-pose rate is noisy (two poses' errors over 33 ms): refine it with what the rows'
     // shear in this image asks for, then compensate again from the raw keypoints.
     std::vector<frame::RateObservation> obs;
-    const frame::RollingShutter shutter{geometry_->readout, image_rows};
+    const frame::RollingShutter shutter{readout, image_rows};
     for (std::size_t i = 0; i < current_.size(); ++i) {
       if (!current_.points[i].valid() || current_.outlier[i]) continue;
       const map::MapPoint* p = shared_.map.point(current_.points[i]);
@@ -234,7 +238,7 @@ void Tracker::refine_rolling_shutter(int image_rows) {
                                       geometry_->fx, geometry_->fy, geometry_->cx, geometry_->cy);
     frame::Frame refined = uncompensated;
     refined.cam_from_world = current_.cam_from_world;
-    refined.compensate_rolling_shutter(rate, image_rows);
+    refined.compensate_rolling_shutter(rate, image_rows, readout);
     after = matching::optimize_frame_pose(refined, shared_.map);
     current_ = std::move(refined);
   }

@@ -33,7 +33,7 @@ TEST(FrameLimit, RealTumClipIsSolvedAndTheReadoutLowersTheLimit) {
         EXPECT_EQ(total, sequence->size());
       });
   EXPECT_EQ(calls, sequence->size());
-  EXPECT_DOUBLE_EQ(r.readout, settings.readout_time);
+  EXPECT_DOUBLE_EQ(r.readout, settings.readout_time.value_or(0.0));
   EXPECT_GT(r.readout, 0.0);
   EXPECT_GE(r.pairs.size(), 34u);
   EXPECT_EQ(r.translation_mm.count, r.pairs.size());

@@ -108,7 +108,7 @@ TEST(RollingShutter, FrameKeepsVirtualRightCoordinatesAndGridConsistent) {
     f.descriptors.push_back({});
   }
   Frame frame(FrameId(1), 0.0, f, cv::Mat(480, 640, CV_32FC1, cv::Scalar(2.0f)), g);
-  frame.compensate_rolling_shutter(Eigen::Vector3d(0.0, 3.0, 0.0), 480);
+  frame.compensate_rolling_shutter(Eigen::Vector3d(0.0, 3.0, 0.0), 480, 0.02);
   for (std::size_t i = 0; i < frame.size(); ++i) {
     const auto& kp = frame.features.keypoints[i];
     EXPECT_NEAR(frame.u_right[i], kp.ux - g->bf / 2.0, 1e-3);

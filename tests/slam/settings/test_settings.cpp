@@ -138,12 +138,13 @@ TEST(Settings, BrokenFilesNameKeyAndFile) {
                "Camera.readoutTime");
 }
 
-// coloc's rolling-shutter key: absent = global shutter; the shipped TUM file gives the Kinect's.
+// coloc's rolling-shutter key: absent = unknown (estimated online); the shipped TUM file gives
+// the Kinect's.
 TEST(Settings, ReadoutTime) {
-  EXPECT_EQ(load_settings(write("minimal.yaml", kMinimal)).readout_time, 0.0);
+  EXPECT_FALSE(load_settings(write("minimal.yaml", kMinimal)).readout_time.has_value());
   const Settings s =
       load_settings(write("readout_ok.yaml", std::string(kMinimal) + "Camera.readoutTime: 0.02\n"));
-  EXPECT_DOUBLE_EQ(s.readout_time, 0.02);
+  EXPECT_DOUBLE_EQ(*s.readout_time, 0.02);
   EXPECT_TRUE(s.warnings.empty());
 }
 

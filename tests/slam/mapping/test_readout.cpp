@@ -1,0 +1,70 @@
+// The rolling-shutter readout estimated online changes the map in place: keyframes are
+// compensated again and each point turns with its reference keyframe's keypoint.
+#include <gtest/gtest.h>
+
+#include "slam/frame/rolling_shutter.hpp"
+#include "slam/mapping/readout.hpp"
+#include "tests/slam/support/slam_test_support.hpp"
+
+namespace coloc::slam::mapping {
+namespace {
+
+// A keyframe whose keypoints spread over the rows (the middle row does not move), turning at
+// `rate` while its rows were read, compensated so far with a readout of 0; a point per keypoint.
+KeyframeId add_turning_keyframe(map::Map& m, const Eigen::Vector3d& rate, double x) {
+  map::Keyframe kf = test_support::row_keyframe(m, 12, {x, 0.0, 0.0});
+  for (std::size_t i = 0; i < kf.frame.size(); ++i) {
+    auto& kp = kf.frame.features.keypoints[i];
+    kp.y = kp.uy = static_cast<float>(20 + 40 * i);
+  }
+  kf.frame.compensate_rolling_shutter(rate, 480, 0.0);  // records the rate only
+  const KeyframeId id = m.add_keyframe(std::move(kf)).id;
+  for (std::uint32_t i = 0; i < 12; ++i)
+    m.add_point(m.keyframe(id)->frame.unproject_world(i), id, i);
+  return id;
+}
+
+TEST(Readout, PointsFollowTheirReferenceKeyframesKeypoints) {
+  map::Map m;
+  const Eigen::Vector3d rate(0.7, 2.0, -0.4);
+  const KeyframeId turning = add_turning_keyframe(m, rate, 0.0);
+  const KeyframeId still = add_turning_keyframe(m, Eigen::Vector3d::Zero(), 0.5);
+  const features::OrbFeatures before = m.keyframe(turning)->frame.features;
+  std::map<MapPointId, Eigen::Vector3d> positions;
+  for (const auto& [id, p] : m.points())
+    positions[id] = p.position;
+
+  set_map_readout(m, 0.02);
+  const frame::Frame& f = m.keyframe(turning)->frame;
+  EXPECT_EQ(f.shutter_readout, 0.02);
+  // The keypoints moved as a 20 ms compensation moves them.
+  features::OrbFeatures expected = before;
+  const auto& g = f.geometry();
+  frame::compensate_rolling_shutter(expected, {0.02, 480}, rate, g.fx, g.fy, g.cx, g.cy);
+  double moved = 0.0;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    EXPECT_NEAR(f.features.keypoints[i].ux, expected.keypoints[i].ux, 1e-3) << i;
+    EXPECT_NEAR(f.features.keypoints[i].uy, expected.keypoints[i].uy, 1e-3) << i;
+    moved = std::max(moved, double{std::abs(f.features.keypoints[i].ux - before.keypoints[i].ux)});
+    EXPECT_NEAR(f.u_right[i], f.features.keypoints[i].ux - g.bf / f.depth[i], 1e-3);
+  }
+  EXPECT_GT(moved, 5.0);  // 2 rad/s over 10 ms at the top and bottom rows: ~10 px
+  // Each point projects onto its keypoint again, at its depth; the still keyframe's stay put.
+  for (const auto& [id, p] : m.points()) {
+    const frame::Frame& ref = m.keyframe(p.reference)->frame;
+    const std::uint32_t i = p.observations.at(p.reference);
+    const Eigen::Vector3d pc = ref.cam_from_world * p.position;
+    EXPECT_NEAR(pc.z(), ref.depth[i], 1e-6);
+    EXPECT_LT((ref.geometry().project(pc) - ref.pixel(i)).norm(), 1e-3);
+    if (p.reference == still) {
+      EXPECT_EQ(p.position, positions[id]);
+    }
+  }
+  // Back to 0: everything returns.
+  set_map_readout(m, 0.0);
+  for (const auto& [id, p] : m.points())
+    EXPECT_LT((p.position - positions[id]).norm(), 1e-9);
+}
+
+}  // namespace
+}  // namespace coloc::slam::mapping
