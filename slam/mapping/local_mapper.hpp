@@ -4,7 +4,8 @@
 // map::KeyframeSink). Per keyframe: BoW vector and database entry, marker detection, point
 // descriptors/normals and covisibility update, recent-point culling, new points by
 // triangulation, duplicate fusion with the neighbours, local bundle adjustment (Ceres, keyframes
-// outside the window fixed) and redundant-keyframe culling. Each processed keyframe is then handed
+// outside the window fixed; with an unknown rolling-shutter readout, the readout too) and
+// redundant-keyframe culling. Each processed keyframe is then handed
 // to the mapper's own output sink (a loop closer), when there is one.
 //
 // Threads: the KeyframeSink members, pause()/resume() and stop() are called from other threads;
@@ -40,8 +41,10 @@ struct LocalMappingOptions {
   bool keyframe_culling = true;
   double redundancy = 0.9;  // a keyframe whose points are this often seen by 3 others is culled
   // Rolling-shutter readout unknown (SharedMap::estimate_readout): the local BA estimates it
-  // with the poses. Each BA may move it by about `readout_step` seconds (its prior); the
-  // keyframes are compensated again once it has moved `readout_publish` from what they use.
+  // with the poses, under a prior of `readout_step` seconds on its change (the window's data
+  // outweigh it; it steadies windows without fast turns). The keyframes are compensated again
+  // once it has moved `readout_publish` from what they use: small steps, as one large one
+  // cost fr1/xyz 4.2 -> 5.7 mm.
   bool estimate_readout = true;
   double readout_step = 0.002;
   double readout_publish = 0.0001;

@@ -31,6 +31,7 @@ inline MapMetadata test_metadata() {
   m.vocabulary_words = test_support::vocabulary().word_count();
   m.settings = "%YAML:1.0\nCamera.fx: 525.0\n";
   m.frame_name = "scan";
+  m.estimated_readout = 0.0171234567;  // seconds; must read back bit for bit
   m.frame_from_slam =
       Sim3(1.25, SO3::exp(Eigen::Vector3d(0.1, -0.2, 0.3)), Eigen::Vector3d(1.0 / 3.0, -2.0, 0.5));
   // The intrinsics of synthetic_geometry(), with distortion.

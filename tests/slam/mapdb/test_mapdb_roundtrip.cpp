@@ -67,6 +67,10 @@ void expect_same_metadata(const MapMetadata& a, const MapMetadata& b) {
                           Eigen::Vector4d(b.frame_from_slam->so3().quaternion().coeffs())));
     EXPECT_TRUE(same_bits(a.frame_from_slam->translation(), b.frame_from_slam->translation()));
   }
+  ASSERT_EQ(a.estimated_readout.has_value(), b.estimated_readout.has_value());
+  if (a.estimated_readout) {
+    EXPECT_TRUE(same_bits(*a.estimated_readout, *b.estimated_readout));
+  }
   ASSERT_EQ(a.camera.has_value(), b.camera.has_value());
   if (a.camera) {
     const auto& p = std::get<PinholeCamera>(*a.camera);
@@ -175,6 +179,7 @@ TEST(MapDb, EmptyMapRoundTrips) {
   MapMetadata metadata = test::test_metadata();
   metadata.camera.reset();
   metadata.frame_from_slam.reset();
+  metadata.estimated_readout.reset();  // a map made with the readout in its settings
   save_map(map::Map{}, metadata, path);
   const LoadedMap loaded = load_map(path, test_support::vocabulary());
   EXPECT_EQ(loaded.map.keyframe_count(), 0u);
