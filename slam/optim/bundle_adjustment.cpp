@@ -112,10 +112,6 @@ class AbortCallback : public ceres::IterationCallback {
   const std::atomic<bool>* flag_;
 };
 
-}  // namespace
-
-namespace {
-
 bool stereo_fn(const Intrinsics& k, const Eigen::Vector3d& p, const Eigen::Vector3d& o,
                Eigen::Vector3d& r, Eigen::Matrix3d* j) {
   return stereo_residual(k, p, o, r, j);
