@@ -244,7 +244,13 @@ void Tracker::refine_rolling_shutter(int image_rows) {
   }
   // A poorly tracked (blurred) frame gives a wrong rate: the compensation is undone when it costs
   // inliers (a ratio below 0.8 let fr1/rpy diverge; 1.0 undid half of the useful ones).
-  if (after < options_.rolling_shutter_keep_ratio * before) current_ = std::move(uncompensated);
+  if (after < options_.rolling_shutter_keep_ratio * before) {
+    const Eigen::Vector3d rate = current_.shutter_rate;
+    current_ = std::move(uncompensated);
+    // An estimated readout keeps the rate on record: a keyframe left at 0 ms while the others
+    // follow the estimate would hold its points, and so the estimate, at 0.
+    if (estimated) current_.compensate_rolling_shutter(rate, image_rows, 0.0);
+  }
 }
 
 void Tracker::follow_reference_of_last_frame() {
