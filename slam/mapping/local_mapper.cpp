@@ -24,6 +24,9 @@ void LocalMappingOptions::check() const {
   if (!(readout_publish >= 0.0)) throw Error("LocalMappingOptions.readout_publish must be >= 0");
   if (!(readout_max > 0.0 && readout_max < 1.0))
     throw Error("LocalMappingOptions.readout_max must be in (0, 1) seconds");
+  if (!(readout_start >= 0.0 && readout_start <= 1.0))
+    throw Error(
+        "LocalMappingOptions.readout_start must be in [0, 1] (a share of the frame interval)");
   ba.check();
 }
 

@@ -64,6 +64,9 @@ System::System(const settings::Settings& settings, const bow::Vocabulary& vocabu
   spdlog::info("slam options:\n{}", options_.describe());
   // No readout in the settings: unknown, so estimated (a global-shutter camera says 0).
   shared_->estimate_readout = !settings.readout_time && options_.mapping.estimate_readout;
+  if (shared_->estimate_readout)
+    shared_->readout =
+        std::min(options_.mapping.readout_start / settings.fps, options_.mapping.readout_max);
   if (options_.loop.enabled)
     loop_closer_ = std::make_unique<loop::LoopCloser>(*shared_, options_.loop);
   mapper_ = std::make_unique<mapping::LocalMapper>(*shared_, vocabulary, detector_.get(),

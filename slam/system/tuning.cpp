@@ -55,6 +55,7 @@ constexpr std::array kTunables{
   Tunable{"mapping.estimate_readout", [](SystemOptions& o) -> Field { return &o.mapping.estimate_readout; }},
   Tunable{"mapping.readout_step", [](SystemOptions& o) -> Field { return &o.mapping.readout_step; }},
   Tunable{"mapping.readout_publish", [](SystemOptions& o) -> Field { return &o.mapping.readout_publish; }},
+  Tunable{"mapping.readout_start", [](SystemOptions& o) -> Field { return &o.mapping.readout_start; }},
   Tunable{"loop.enabled", [](SystemOptions& o) -> Field { return &o.loop.enabled; }},
   Tunable{"loop.min_consistency", [](SystemOptions& o) -> Field { return &o.loop.min_consistency; }},
   Tunable{"loop.min_inliers", [](SystemOptions& o) -> Field { return &o.loop.min_inliers; }},

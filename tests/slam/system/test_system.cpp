@@ -175,6 +175,7 @@ TEST(SlamSystem, EstimatesTheRollingShutterReadoutWhenTheSettingsGiveNone) {
     options.tracking.wait_for_sink = true;
     options.detect_markers = false;
     options.mapping.estimate_readout = estimate;
+    options.mapping.readout_start = 0.0;  // the estimator finds it from nothing
     System slam(settings, vocabulary(), options);
     for (std::size_t i = 0; i < sequence->size(); ++i) {
       const auto f = sequence->frame(i);
@@ -187,6 +188,12 @@ TEST(SlamSystem, EstimatesTheRollingShutterReadoutWhenTheSettingsGiveNone) {
                slam.summary().estimated_readout,
                mapdb::read_map_info(map_file).metadata.estimated_readout};
   };
+  {
+    // By default the estimate starts at half the frame interval.
+    const System fresh(settings, vocabulary(), SystemOptions{});
+    ASSERT_TRUE(fresh.summary().estimated_readout.has_value());
+    EXPECT_DOUBLE_EQ(*fresh.summary().estimated_readout, 0.5 / settings.fps);
+  }
   const Run with = run(true), without = run(false);
   ASSERT_TRUE(with.summary_readout.has_value());
   EXPECT_GT(*with.summary_readout, 0.003);  // the Kinect v1 reads its rows over about 20 ms
