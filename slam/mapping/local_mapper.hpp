@@ -54,7 +54,7 @@ struct LocalMappingOptions {
   // guess either way, and the data move it within a few keyframes (a global shutter's to 0 ms in
   // 3 local BAs). From 0, the estimate was still near 5 ms when fr1/rpy turns fast at frame 50
   // (the Kinect's is 20-25 ms), and 5 of 40 paced runs with the ORB-SLAM3 file ended above
-  // 25 mm (std 5.7 mm); from half, 0 of 20 (std 1.5 mm). The price: fr1/xyz 4.2 -> 4.5 mm, and
+  // 25 mm (std 5.7 mm); from half, 1 of 40 (std 2.7 mm). The price: fr1/xyz 4.2 -> 4.5 mm, and
   // a global-shutter twin room without the key 3.7-4.0 -> 5.5 mm (its first second is
   // compensated for a shear it does not have). A map that is continued starts from its own.
   double readout_start = 0.5;
