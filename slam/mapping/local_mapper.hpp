@@ -5,8 +5,8 @@
 // descriptors/normals and covisibility update, recent-point culling, new points by
 // triangulation, duplicate fusion with the neighbours, local bundle adjustment (Ceres, keyframes
 // outside the window fixed; with an unknown rolling-shutter readout, the readout too) and
-// redundant-keyframe culling. Each processed keyframe is then handed
-// to the mapper's own output sink (a loop closer), when there is one.
+// redundant-keyframe culling. Each processed keyframe is then handed to the mapper's own output
+// sink (a loop closer), when there is one.
 //
 // Threads: the KeyframeSink members, pause()/resume() and stop() are called from other threads;
 // everything else runs in the mapper's thread. The map is touched only under SharedMap::mutex; BA
