@@ -84,7 +84,17 @@ RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
     return truth ? ate_of(*truth, t) : std::optional<eval::AteResult>();
   };
   r.ate_online = ate_of_run(slam.trajectory());
-  if (run.global_ba) r.global_ba = slam.optimize_map();
+  if (run.global_ba) {
+    // Not for a continued map: its earlier keyframes' timestamps belong to another recording's
+    // clock, which this IMU log must not be read at.
+    std::optional<slam::mapping::GravityMeasurements> gravity;
+    if (run.gravity && run.load.empty() && truth && !truth->imu().empty() &&
+        settings.imu_from_cam) {
+      const Eigen::Matrix3d cam_from_imu = settings.imu_from_cam->topLeftCorner<3, 3>().transpose();
+      gravity.emplace(truth->imu(), cam_from_imu, slam.trajectory());
+    }
+    r.global_ba = slam.optimize_map({}, gravity ? &*gravity : nullptr);
+  }
   r.summary = slam.summary();
   r.trajectory = slam.trajectory();
   r.keyframes = slam.keyframe_trajectory();

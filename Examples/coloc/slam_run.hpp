@@ -19,10 +19,13 @@
 namespace coloc::cli {
 
 struct RunOptions {
-  bool sequential = false;     // tracking waits for local mapping after each keyframe
-  bool realtime = false;       // a sequence's frames arrive at their timestamps (dataset::paced)
-  bool global_ba = true;       // of the finished map
-  bool loop = true;            // loop closing
+  bool sequential = false;  // tracking waits for local mapping after each keyframe
+  bool realtime = false;    // a sequence's frames arrive at their timestamps (dataset::paced)
+  bool global_ba = true;    // of the finished map
+  bool loop = true;         // loop closing
+  // The global BA ties the tilt to gravity when the sequence has an IMU log and the settings
+  // place the IMU (IMU.T_b_c1); not yet for a continued map (`load`).
+  bool gravity = true;
   std::filesystem::path load;  // a saved map to continue (empty: a new map)
   // Called with the System before the first frame (a live viewer attaches itself), and before
   // the System is destroyed, also when the run fails (it detaches).

@@ -50,6 +50,7 @@ struct MapArgs {
   bool realtime = false;
   bool no_global_ba = false;
   bool no_loop = false;
+  bool no_gravity = false;
   bool json = false;
   int runs = 1;
   ViewArgs view;  // --view: live in the browser
@@ -194,6 +195,7 @@ void run_map(const MapArgs& given) {
                  .realtime = args.realtime,
                  .global_ba = !args.no_global_ba,
                  .loop = !args.no_loop,
+                 .gravity = !args.no_gravity,
                  .load = args.load};
   if (live) {
     run.on_start = [&](slam::system::System& s) { live->attach(s); };
@@ -234,9 +236,11 @@ void run_bench(const MapArgs& args) {
               "loops");
   std::vector<double> ate_online, ate_final;
   for (int run = 0; run < args.runs; ++run) {
-    const RunResult r =
-        run_slam(*sequence, settings, vocabulary,
-                 {.sequential = args.sequential, .realtime = args.realtime, .loop = !args.no_loop});
+    const RunResult r = run_slam(*sequence, settings, vocabulary,
+                                 {.sequential = args.sequential,
+                                  .realtime = args.realtime,
+                                  .loop = !args.no_loop,
+                                  .gravity = !args.no_gravity});
     if (r.ate_online) ate_online.push_back(1e3 * r.ate_online->translation.rmse);
     if (r.ate) ate_final.push_back(1e3 * r.ate->translation.rmse);
     const auto& s = r.summary;
@@ -302,6 +306,8 @@ void add_map_verb(CLI::App& app, CLI::App& bench) {
   map->add_flag("--no-global-ba", args->no_global_ba,
                 "Skip the global bundle adjustment of the finished map");
   map->add_flag("--no-loop", args->no_loop, "No loop closing");
+  map->add_flag("--no-gravity", args->no_gravity,
+                "The global BA ignores the sequence's IMU log (see IMU.T_b_c1)");
   map->add_flag("--json", args->json, "Machine-readable summary");
   add_live_view_options(*map, args->view);
   map->callback([args] { run_map(*args); });
@@ -317,6 +323,8 @@ void add_map_verb(CLI::App& app, CLI::App& bench) {
   track->add_flag("--sequential", args->sequential, "Tracking waits for local mapping");
   track->add_flag("--realtime", args->realtime, "Frames arrive at their timestamps");
   track->add_flag("--no-loop", args->no_loop, "No loop closing");
+  track->add_flag("--no-gravity", args->no_gravity,
+                  "The global BA ignores the sequence's IMU log (see IMU.T_b_c1)");
   track->callback([args] { run_bench(*args); });
 }
 

@@ -15,15 +15,12 @@
 #include <vector>
 
 #include "slam/core/camera.hpp"
+#include "slam/core/imu_sample.hpp"
 #include "slam/core/trajectory.hpp"
 
 namespace coloc::dataset {
 
-struct ImuSample {
-  double timestamp = 0.0;                           // seconds
-  Eigen::Vector3d gyro = Eigen::Vector3d::Zero();   // rad/s, sensor frame
-  Eigen::Vector3d accel = Eigen::Vector3d::Zero();  // m/s^2, sensor frame (includes gravity)
-};
+using coloc::ImuSample;
 
 struct Frame {
   std::size_t index = 0;

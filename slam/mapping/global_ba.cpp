@@ -34,9 +34,24 @@ double rms_reprojection(const optim::BundleProblem& problem, const optim::Intrin
   return n > 0 ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
 }
 
+// RMS length of the gravity residuals (m/s^2) at the problem's poses.
+double rms_gravity(const optim::BundleProblem& problem, const optim::BundleResult& result) {
+  if (problem.gravity.empty()) return 0.0;
+  double sum = 0.0;
+  for (const auto& g : problem.gravity) {
+    const Eigen::Matrix3d world_from_cam =
+        problem.poses[g.pose].cam_from_world.rotation().transpose();
+    sum += (world_from_cam * (g.specific_force_cam - result.accel_bias) - g.accel_world -
+            problem.gravity_model.magnitude * result.up_world)
+               .squaredNorm();
+  }
+  return std::sqrt(sum / static_cast<double>(problem.gravity.size()));
+}
+
 }  // namespace
 
-GlobalBaReport global_bundle_adjustment(map::SharedMap& shared, const GlobalBaOptions& options) {
+GlobalBaReport global_bundle_adjustment(map::SharedMap& shared, const GlobalBaOptions& options,
+                                        const GravityMeasurements* gravity) {
   options.check();
   GlobalBaReport report;
   BaWindow w;
@@ -49,6 +64,15 @@ GlobalBaReport global_bundle_adjustment(map::SharedMap& shared, const GlobalBaOp
       all.push_back(id);
     std::sort(all.begin(), all.end());  // deterministic problem order
     w = make_window(m, all);
+    if (gravity) {
+      w.problem.gravity_model = gravity->options().model;
+      for (std::size_t i = 0; i < w.pose_ids.size(); ++i) {
+        auto g = gravity->at(m.keyframe(w.pose_ids[i])->frame.timestamp);
+        if (!g) continue;
+        g->pose = static_cast<std::uint32_t>(i);
+        w.problem.gravity.push_back(*g);
+      }
+    }
   }
   const optim::BundleProblem initial = w.problem;
   Stopwatch watch;
@@ -66,6 +90,9 @@ GlobalBaReport global_bundle_adjustment(map::SharedMap& shared, const GlobalBaOp
   report.outliers =
       static_cast<std::size_t>(std::count(result.outlier.begin(), result.outlier.end(), 1));
   report.iterations = result.iterations;
+  report.gravity_keyframes = w.problem.gravity.size();
+  report.accel_bias = result.accel_bias;
+  report.gravity_rms = rms_gravity(w.problem, result);
   return report;
 }
 

@@ -5,6 +5,7 @@
 // registers to the laser scan) is then consistent as a whole, not only window by window.
 // Frames follow through their reference keyframes (System::trajectory()).
 #include "slam/map/shared_map.hpp"
+#include "slam/mapping/gravity.hpp"
 #include "slam/optim/bundle_adjustment.hpp"
 
 namespace coloc::slam::mapping {
@@ -23,10 +24,16 @@ struct GlobalBaReport {
   // over the observations kept, before and after.
   double initial_rms_px = 0.0, final_rms_px = 0.0;
   double ms = 0.0;
+  // With gravity: keyframes that had a measurement, the accelerometer bias estimated (camera
+  // frame, m/s^2) and the RMS of the gravity residuals after (m/s^2).
+  std::size_t gravity_keyframes = 0;
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
+  double gravity_rms = 0.0;
 };
 
 // Takes the map lock to copy the problem out and to write the result back, not while solving.
-GlobalBaReport global_bundle_adjustment(map::SharedMap& shared,
-                                        const GlobalBaOptions& options = {});
+// `gravity`: accelerometer measurements for the keyframes (their timestamps), or none.
+GlobalBaReport global_bundle_adjustment(map::SharedMap& shared, const GlobalBaOptions& options = {},
+                                        const GravityMeasurements* gravity = nullptr);
 
 }  // namespace coloc::slam::mapping

@@ -4,6 +4,7 @@
 #include <ceres/normal_prior.h>
 #include <ceres/problem.h>
 #include <ceres/solver.h>
+#include <ceres/sphere_manifold.h>
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +12,7 @@
 #include <memory>
 
 #include "slam/core/error.hpp"
+#include "slam/optim/gravity_cost.hpp"
 
 namespace coloc::slam::optim {
 
@@ -170,11 +172,39 @@ Eigen::Vector3d observed(const Intrinsics& k, const BundleProblem::Observation& 
   return shutter_shifted(k, raw, o.shear, delta, nullptr);
 }
 
-// One Ceres solve over the observations not flagged in `skip`; `delta`, the readout change, is
-// a parameter when the problem estimates the readout. Returns iterations run.
-int solve(BundleProblem& problem, std::vector<double>& pose_params, double& delta,
-          const Intrinsics& k, const BundleOptions& options, const std::vector<std::uint8_t>& skip,
-          bool robust, int iterations, const std::atomic<bool>* abort, BundleResult& result) {
+// The unknowns besides poses and points, each a parameter only when the problem has it.
+struct Extras {
+  double delta = 0.0;  // readout change (seconds)
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
+};
+
+void add_gravity(BundleProblem& problem, std::vector<double>& pose_params, Extras& x, bool robust,
+                 ceres::Manifold* sphere, ceres::Problem& ceres_problem) {
+  const BundleProblem::GravityModel& m = problem.gravity_model;
+  for (const BundleProblem::Gravity& g : problem.gravity) {
+    double* pose = &pose_params[std::size_t{7} * g.pose];
+    // A pose without an observation in this solve is not a parameter block yet.
+    if (!ceres_problem.HasParameterBlock(pose)) continue;
+    // A window whose walker stumbled (a knock on the sensor) must not tilt its keyframe.
+    ceres_problem.AddResidualBlock(
+        new GravityCost(g.specific_force_cam, g.accel_world, m.magnitude, m.sigma),
+        robust ? new ceres::HuberLoss(3.0) : nullptr, pose, x.up.data(), x.accel_bias.data());
+  }
+  if (!ceres_problem.HasParameterBlock(x.up.data())) return;
+  ceres_problem.SetManifold(x.up.data(), sphere);
+  ceres_problem.AddResidualBlock(
+      new ceres::NormalPrior(Eigen::Matrix3d::Identity() / m.accel_bias_sigma,
+                             Eigen::Vector3d::Zero()),
+      nullptr, x.accel_bias.data());
+}
+
+// One Ceres solve over the observations not flagged in `skip`; the readout change is a
+// parameter when the problem estimates the readout. Returns iterations run.
+int solve(BundleProblem& problem, std::vector<double>& pose_params, Extras& x, const Intrinsics& k,
+          const BundleOptions& options, const std::vector<std::uint8_t>& skip, bool robust,
+          int iterations, const std::atomic<bool>* abort, BundleResult& result) {
+  double& delta = x.delta;
   ceres::Problem::Options popts;
   popts.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem ceres_problem(popts);
@@ -212,6 +242,8 @@ int solve(BundleProblem& problem, std::vector<double>& pose_params, double& delt
     }
   }
   if (ceres_problem.NumResidualBlocks() == 0) return 0;
+  ceres::SphereManifold<3> sphere;
+  add_gravity(problem, pose_params, x, robust, &sphere, ceres_problem);
   if (ceres_problem.HasParameterBlock(&delta)) {
     const BundleProblem::Readout& r = problem.readout;
     const Eigen::Matrix<double, 1, 1> a =
@@ -272,18 +304,30 @@ BundleResult bundle_adjust(BundleProblem& problem, const Intrinsics& k,
   for (std::size_t i = 0; i < problem.poses.size(); ++i)
     pose_to_array(problem.poses[i].cam_from_world, &pose_params[7 * i]);
 
-  double delta = 0.0;  // readout change (seconds), a parameter only when estimated
-  result.iterations += solve(problem, pose_params, delta, k, options, result.outlier, true,
+  Extras x;
+  if (!problem.gravity.empty()) {
+    // Up starts as the mean of what each keyframe's measurement says it is.
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const BundleProblem::Gravity& g : problem.gravity)
+      sum += problem.poses[g.pose].cam_from_world.rotation().transpose() * g.specific_force_cam -
+             g.accel_world;
+    if (sum.norm() > 0.0) x.up = sum.normalized();
+  }
+  result.iterations += solve(problem, pose_params, x, k, options, result.outlier, true,
                              options.iterations_robust, abort, result);
-  flag_outliers(problem, pose_params, delta, k, options, result.outlier);
+  flag_outliers(problem, pose_params, x.delta, k, options, result.outlier);
   if (!(abort && abort->load()) && options.iterations_refine > 0) {
-    result.iterations += solve(problem, pose_params, delta, k, options, result.outlier, false,
+    result.iterations += solve(problem, pose_params, x, k, options, result.outlier, false,
                                options.iterations_refine, abort, result);
     // ORB-SLAM2 checks every observation again after the refinement: a wrong match the kernel
     // hid by splitting its error with the right ones shows once it pulls with full weight.
-    flag_outliers(problem, pose_params, delta, k, options, result.outlier);
+    flag_outliers(problem, pose_params, x.delta, k, options, result.outlier);
   }
-  result.readout_change = delta;
+  result.readout_change = x.delta;
+  if (!problem.gravity.empty()) {
+    result.up_world = x.up;
+    result.accel_bias = x.accel_bias;
+  }
   result.aborted = abort && abort->load();
   for (std::size_t i = 0; i < problem.poses.size(); ++i) {
     problem.poses[i].cam_from_world = pose_from_array(&pose_params[7 * i]);

@@ -46,10 +46,27 @@ struct BundleProblem {
     double prior_sigma = 0.002;  // seconds
     double min = 0.0, max = 0.05;
   };
+  // An accelerometer on a keyframe (mapping/gravity.hpp): the mean specific force it measured
+  // over a short window, in the camera frame, and the camera's mean acceleration over the same
+  // window in the world frame. Each ties its pose's tilt to one gravity direction shared by all,
+  // estimated with a constant accelerometer bias (optim::GravityCost). Vision alone leaves the
+  // tilt to a random walk: on the twin building most of the error after loop closing is height.
+  struct Gravity {
+    std::uint32_t pose = 0;                                        // index into poses
+    Eigen::Vector3d specific_force_cam = Eigen::Vector3d::Zero();  // m/s^2
+    Eigen::Vector3d accel_world = Eigen::Vector3d::Zero();         // m/s^2
+  };
+  struct GravityModel {
+    double magnitude = 9.81;        // m/s^2
+    double sigma = 0.02;            // m/s^2 per axis, of one keyframe's Gravity
+    double accel_bias_sigma = 0.1;  // m/s^2 per axis: a prior for sequences that turn little
+  };
   std::vector<Pose> poses;
   std::vector<Eigen::Vector3d> points;  // world, metres
   std::vector<Observation> observations;
   Readout readout;
+  std::vector<Gravity> gravity;
+  GravityModel gravity_model;
 };
 
 struct BundleOptions {
@@ -67,6 +84,10 @@ struct BundleResult {
   int iterations = 0;
   double initial_cost = 0.0, final_cost = 0.0;
   double readout_change = 0.0;  // seconds, estimated readout - problem.readout.current
+  // With BundleProblem::gravity: the unit vector against gravity in the world frame, and the
+  // accelerometer bias (camera frame, m/s^2). Zero without.
+  Eigen::Vector3d up_world = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
 };
 
 // Optimizes `problem` in place. `abort` (may be null) is polled between iterations.

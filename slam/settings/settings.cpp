@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <Eigen/LU>
 #include <cmath>
 #include <fstream>
 #include <opencv2/core.hpp>
@@ -109,6 +110,36 @@ class KeyReader {
     used_.insert(key);
     if (!node.isString()) fail(key, "expected a string");
     return static_cast<std::string>(node);
+  }
+
+  // A rigid transform as a 4x4 !!opencv-matrix (its rotation orthonormal to 1e-4, its last row
+  // 0 0 0 1).
+  std::optional<Eigen::Matrix4d> transform(const std::string& key) {
+    const cv::FileNode node = storage_[key];
+    if (node.empty()) return std::nullopt;
+    used_.insert(key);
+    cv::Mat m;
+    try {
+      node >> m;
+    } catch (const cv::Exception&) {
+      fail(key, "expected a 4x4 !!opencv-matrix");
+    }
+    if (m.rows != 4 || m.cols != 4 || m.channels() != 1)
+      fail(key, "expected a 4x4 !!opencv-matrix, got " + std::to_string(m.rows) + "x" +
+                    std::to_string(m.cols));
+    m.convertTo(m, CV_64F);
+    Eigen::Matrix4d t;
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c)
+        t(r, c) = m.at<double>(r, c);
+    if (!t.allFinite()) fail(key, "expected finite numbers");
+    const Eigen::Matrix3d rot = t.topLeftCorner<3, 3>();
+    if ((rot * rot.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-4 ||
+        rot.determinant() < 0.0)
+      fail(key, "the upper-left 3x3 block is not a rotation");
+    if (!t.bottomRows<1>().isApprox(Eigen::RowVector4d(0, 0, 0, 1)))
+      fail(key, "the last row must be 0 0 0 1");
+    return t;
   }
 
   [[noreturn]] void fail(const std::string& key, const std::string& message) const {
@@ -247,6 +278,7 @@ Settings read_settings(const std::string& text, const std::filesystem::path& pat
   s.readout_time = keys.number("Camera.readoutTime");
   if (s.readout_time && !(*s.readout_time >= 0.0 && *s.readout_time < 1.0))
     keys.fail("Camera.readoutTime", "must be in [0, 1) seconds");
+  s.imu_from_cam = keys.transform("IMU.T_b_c1");
   s.depth = read_depth(keys, s.file_version, intrinsic_matrix(s.camera)(0, 0));
   s.orb = read_orb(keys);
   s.markers.dictionary = keys.text("Markers.dictionary").value_or(s.markers.dictionary);

@@ -9,10 +9,12 @@
 // coloc's own additions live in the same file under their own prefixes: Camera.readoutTime,
 // Markers.*, and Coloc.<option> for the SLAM options users tune (slam/system/tuning.hpp names
 // them; an unknown one is an error there). ORB-SLAM3's System.LoadAtlasFromFile and
-// System.SaveAtlasToFile name the map database (slam/mapdb) to continue and to save. Any other
-// key (ORB-SLAM3's IMU.*, ...) is reported as a warning naming it: nothing reads it. A missing
+// System.SaveAtlasToFile name the map database (slam/mapdb) to continue and to save, and
+// IMU.T_b_c1 places an IMU. Any other key (ORB-SLAM3's IMU noise figures, ...) is reported as a
+// warning naming it: nothing reads it. A missing
 // required key or a value of the wrong type is a coloc::Error naming the key and the file.
 
+#include <Eigen/Core>
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -55,6 +57,10 @@ struct Settings {
   // colour camera; 0 = global shutter. Tracking compensates it with the motion model's rotation.
   // Absent (users' ORB-SLAM files): unknown, estimated online by local mapping.
   std::optional<double> readout_time;
+  // IMU.T_b_c1 (ORB-SLAM3's key): the camera's pose in the IMU ("body") frame, a 4x4
+  // !!opencv-matrix. With it, a sequence's IMU log ties the map's tilt to gravity in the global
+  // BA (slam/mapping/gravity.hpp). The other IMU.* keys are not read.
+  std::optional<Eigen::Matrix4d> imu_from_cam;
   // Camera.RGB: the channel order of the colour images the camera hands to tracking (1 RGB,
   // 0 BGR). Images decoded from files by OpenCV are BGR whatever this says.
   bool rgb_order = false;

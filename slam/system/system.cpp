@@ -135,14 +135,22 @@ mapdb::SaveReport System::save_map(const std::filesystem::path& path,
   return mapdb::save_map(shared_->map, m, path, options);
 }
 
-mapping::GlobalBaReport System::optimize_map(const mapping::GlobalBaOptions& options) {
+mapping::GlobalBaReport System::optimize_map(const mapping::GlobalBaOptions& options,
+                                             const mapping::GravityMeasurements* gravity) {
   shutdown();
-  const mapping::GlobalBaReport report = mapping::global_bundle_adjustment(*shared_, options);
+  const mapping::GlobalBaReport report =
+      mapping::global_bundle_adjustment(*shared_, options, gravity);
   spdlog::debug(
       "global BA: {} keyframes, {} points, {} observations ({} outliers removed), rms {:.3f} -> "
       "{:.3f} px, {} iterations, {:.0f} ms",
       report.keyframes, report.points, report.observations, report.outliers, report.initial_rms_px,
       report.final_rms_px, report.iterations, report.ms);
+  if (report.gravity_keyframes > 0)
+    spdlog::info(
+        "global BA: gravity from {} keyframes, residual rms {:.3f} m/s^2, accelerometer bias "
+        "({:.3f}, {:.3f}, {:.3f}) m/s^2 (camera frame)",
+        report.gravity_keyframes, report.gravity_rms, report.accel_bias.x(), report.accel_bias.y(),
+        report.accel_bias.z());
   return report;
 }
 

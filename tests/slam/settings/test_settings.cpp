@@ -78,7 +78,7 @@ TEST(Settings, FisheyeOwnSectionsAndUnknownKeys) {
                           "\"DICT_APRILTAG_36h11\"\nMarkers.size: 0.2\nFusion.processNoise: "
                           "0.002\nOSC.port: 9000\nCamera.fsp: 30\nIMU.NoiseGyro: 1.7e-4\n"
                           "Coloc.tracking.min_local_inliers: 25\nColoc.mapping.local_ba: 0\n"
-                          "IMU.T_b_c1: !!opencv-matrix\n  rows: 2\n  cols: 2\n  dt: f\n"
+                          "Stereo.T_c1_c2: !!opencv-matrix\n  rows: 2\n  cols: 2\n  dt: f\n"
                           "  data: [1.0, 0.5, -2.0, 0.25]\n");
   const Settings s = load_settings(path);
   ASSERT_TRUE(std::holds_alternative<KannalaBrandtCamera>(s.camera));
@@ -91,7 +91,7 @@ TEST(Settings, FisheyeOwnSectionsAndUnknownKeys) {
                                                             {"mapping.local_ba", 0.0}}));
   // Keys nothing reads are named, in file order: the misspelt one, and blocks no verb uses.
   EXPECT_EQ(s.warnings, (std::vector<std::string>{"Fusion.processNoise", "OSC.port", "Camera.fsp",
-                                                  "IMU.NoiseGyro", "IMU.T_b_c1"}));
+                                                  "IMU.NoiseGyro", "Stereo.T_c1_c2"}));
 }
 
 // ORB-SLAM3 v1.0's atlas keys name the map database to continue and to save; a bare name gets
@@ -146,6 +146,27 @@ TEST(Settings, ReadoutTime) {
       load_settings(write("readout_ok.yaml", std::string(kMinimal) + "Camera.readoutTime: 0.02\n"));
   EXPECT_DOUBLE_EQ(*s.readout_time, 0.02);
   EXPECT_TRUE(s.warnings.empty());
+}
+
+TEST(Settings, ImuPlacement) {
+  EXPECT_FALSE(load_settings(write("no_imu.yaml", kMinimal)).imu_from_cam);
+  const std::string matrix =
+      "IMU.T_b_c1: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: f\n"
+      "   data: [0., -1., 0., 0.02, 1., 0., 0., 0.005, 0., 0., 1., 0.01, 0., 0., 0., 1.]\n";
+  const Settings s = load_settings(write("imu.yaml", std::string(kMinimal) + matrix));
+  ASSERT_TRUE(s.imu_from_cam);
+  EXPECT_NEAR((*s.imu_from_cam)(0, 1), -1.0, 1e-7);
+  EXPECT_NEAR((*s.imu_from_cam)(1, 3), 0.005, 1e-7);
+  EXPECT_TRUE(s.warnings.empty());
+  // Not a 4x4, not a rotation, not a matrix: named errors.
+  expect_error(write("imu_3x3.yaml", std::string(kMinimal) +
+                                         "IMU.T_b_c1: !!opencv-matrix\n   rows: 3\n   cols: 3\n"
+                                         "   dt: d\n   data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\n"),
+               "IMU.T_b_c1");
+  std::string scaled = matrix;
+  scaled.replace(scaled.find("[0., -1."), 8, "[0., -2.");
+  expect_error(write("imu_scaled.yaml", std::string(kMinimal) + scaled), "IMU.T_b_c1");
+  expect_error(write("imu_number.yaml", std::string(kMinimal) + "IMU.T_b_c1: 3\n"), "IMU.T_b_c1");
 }
 
 TEST(Settings, UnreadableFilesAreErrors) {
