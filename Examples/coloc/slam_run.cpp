@@ -93,6 +93,10 @@ RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
       const Eigen::Matrix3d cam_from_imu = settings.imu_from_cam->topLeftCorner<3, 3>().transpose();
       gravity.emplace(truth->imu(), cam_from_imu, slam.trajectory());
     }
+    if (gravity && run.compare_gravity) {
+      slam.optimize_map();
+      r.ate_vision = ate_of_run(slam.trajectory());
+    }
     r.global_ba = slam.optimize_map({}, gravity ? &*gravity : nullptr);
   }
   r.summary = slam.summary();

@@ -5,6 +5,7 @@
 
 #include "slam/core/timing.hpp"
 #include "slam/mapping/ba_window.hpp"
+#include "slam/optim/gravity_cost.hpp"
 
 namespace coloc::slam::mapping {
 
@@ -39,11 +40,14 @@ double rms_gravity(const optim::BundleProblem& problem, const optim::BundleResul
   if (problem.gravity.empty()) return 0.0;
   double sum = 0.0;
   for (const auto& g : problem.gravity) {
-    const Eigen::Matrix3d world_from_cam =
-        problem.poses[g.pose].cam_from_world.rotation().transpose();
-    sum += (world_from_cam * (g.specific_force_cam - result.accel_bias) - g.accel_world -
-            problem.gravity_model.magnitude * result.up_world)
-               .squaredNorm();
+    const optim::GravityCost cost(g.specific_force_cam, g.accel_world,
+                                  problem.gravity_model.magnitude, 1.0);
+    double pose[7];
+    optim::pose_to_array(problem.poses[g.pose].cam_from_world, pose);
+    const double* params[3] = {pose, result.up_world.data(), result.accel_bias.data()};
+    Eigen::Vector3d r;
+    cost.Evaluate(params, r.data(), nullptr);
+    sum += r.squaredNorm();
   }
   return std::sqrt(sum / static_cast<double>(problem.gravity.size()));
 }

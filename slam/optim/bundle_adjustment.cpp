@@ -179,8 +179,8 @@ struct Extras {
   Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
 };
 
-void add_gravity(BundleProblem& problem, std::vector<double>& pose_params, Extras& x, bool robust,
-                 ceres::Manifold* sphere, ceres::Problem& ceres_problem) {
+void add_gravity(const BundleProblem& problem, std::vector<double>& pose_params, Extras& x,
+                 bool robust, ceres::Manifold* sphere, ceres::Problem& ceres_problem) {
   const BundleProblem::GravityModel& m = problem.gravity_model;
   for (const BundleProblem::Gravity& g : problem.gravity) {
     double* pose = &pose_params[std::size_t{7} * g.pose];
