@@ -78,9 +78,8 @@ void plausibility(const map::Map& map, const map::Keyframe& cur, const LoopOptio
   v.path_m = path_length(map, v.candidate, v.current);
   v.correction_m = correction.translation().norm();
   v.correction_rad = correction.so3().log().norm();
-  v.allowed_m = o.max_drift_m + o.max_drift_per_m * v.path_m;
-  v.allowed_rad = o.max_rotation_drift + o.max_rotation_drift_per_m * v.path_m;
-  if (v.correction_m > v.allowed_m || v.correction_rad > v.allowed_rad) {
+  if (!plausible_correction(v.correction_m, v.correction_rad, v.path_m, o, &v.allowed_m,
+                            &v.allowed_rad)) {
     v.rejection = "implausible correction (aliasing?)";
     v.implausible = true;
     return;
@@ -89,6 +88,15 @@ void plausibility(const map::Map& map, const map::Keyframe& cur, const LoopOptio
 }
 
 }  // namespace
+
+bool plausible_correction(double correction_m, double correction_rad, double path_m,
+                          const LoopOptions& options, double* allowed_m, double* allowed_rad) {
+  const double m = options.max_drift_m + options.max_drift_per_m * path_m;
+  const double rad = options.max_rotation_drift + options.max_rotation_drift_per_m * path_m;
+  if (allowed_m) *allowed_m = m;
+  if (allowed_rad) *allowed_rad = rad;
+  return correction_m <= m && correction_rad <= rad;
+}
 
 double path_length(const map::Map& map, KeyframeId from, KeyframeId to) {
   if (to < from) std::swap(from, to);

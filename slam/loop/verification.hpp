@@ -37,6 +37,12 @@ struct LoopVerification {
 LoopVerification verify_loop(const map::Map& map, KeyframeId current, KeyframeId candidate,
                              const LoopOptions& options, std::mt19937& rng);
 
+// The plausibility test alone: the bounds at `path_m` (LoopVerification::allowed_m / _rad), and
+// whether a correction of `correction_m` / `correction_rad` is within them.
+bool plausible_correction(double correction_m, double correction_rad, double path_m,
+                          const LoopOptions& options, double* allowed_m = nullptr,
+                          double* allowed_rad = nullptr);
+
 // Sum of the camera-centre steps between consecutive keyframes (by id) from `from` to `to`.
 double path_length(const map::Map& map, KeyframeId from, KeyframeId to);
 

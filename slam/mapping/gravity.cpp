@@ -18,17 +18,32 @@ void GravityOptions::check() const {
     throw Error("GravityOptions.model.accel_bias_sigma must be > 0");
 }
 
-GravityMeasurements::GravityMeasurements(std::vector<ImuSample> imu,
-                                         const Eigen::Matrix3d& cam_from_imu, Trajectory frames,
-                                         const GravityOptions& options)
+GravityMeasurements::GravityMeasurements(std::vector<ImuSample> imu, const SE3& imu_from_cam,
+                                         Trajectory frames, const GravityOptions& options)
     : imu_(std::move(imu)),
-      cam_from_imu_(cam_from_imu),
+      cam_from_imu_(imu_from_cam.so3().inverse()),
       frames_(std::move(frames)),
       options_(options) {
   options_.check();
   auto by_time = [](const auto& a, const auto& b) { return a.timestamp < b.timestamp; };
   std::stable_sort(imu_.begin(), imu_.end(), by_time);
   std::stable_sort(frames_.begin(), frames_.end(), by_time);
+  // What an accelerometer at the camera's origin would read: f + alpha x t + omega x (omega x t)
+  // in the IMU frame, alpha by central differences of the gyro.
+  const Eigen::Vector3d arm = imu_from_cam.translation();
+  if (arm.isZero() || imu_.size() < 3) return;
+  std::vector<Eigen::Vector3d> moved(imu_.size());
+  for (std::size_t i = 0; i < imu_.size(); ++i) {
+    const ImuSample& before = imu_[i == 0 ? 0 : i - 1];
+    const ImuSample& after = imu_[std::min(i + 1, imu_.size() - 1)];
+    const double dt = after.timestamp - before.timestamp;
+    const Eigen::Vector3d alpha =
+        dt > 0.0 ? Eigen::Vector3d((after.gyro - before.gyro) / dt) : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d& omega = imu_[i].gyro;
+    moved[i] = imu_[i].accel + alpha.cross(arm) + omega.cross(omega.cross(arm));
+  }
+  for (std::size_t i = 0; i < imu_.size(); ++i)
+    imu_[i].accel = moved[i];
 }
 
 std::optional<Eigen::Vector3d> GravityMeasurements::position(double t) const {

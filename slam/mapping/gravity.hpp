@@ -4,7 +4,10 @@
 // walk; an accelerometer measures it absolutely, but mixed with the camera's own acceleration.
 // Per keyframe, over a window of +-half_window seconds around it:
 //  - the mean specific force, each sample turned into the keyframe's camera frame by the gyro
-//    (so the window may turn) and by the IMU-camera rotation;
+//    (so the window may turn) and by the IMU-camera rotation, and moved to the camera's origin
+//    (+ alpha x t + omega x (omega x t), t the lever arm): a 2 cm arm turning at 1.6 rad/s
+//    adds 0.05 m/s^2 (5 mrad of tilt) at every corner. With the twin's noise-free IMU and true
+//    poses the residual across gravity is 0.013 m/s^2 RMS without the arm, 0.0003 with it;
 //  - the mean acceleration of the camera in the world frame, from the tracked trajectory: the
 //    velocity change across the window, velocities by central differences over
 //    +-velocity_half_window. Short ones: over +-0.2 s they smooth away a walker's step bounce
@@ -18,6 +21,7 @@
 #include <vector>
 
 #include "slam/core/imu_sample.hpp"
+#include "slam/core/se3.hpp"
 #include "slam/core/trajectory.hpp"
 #include "slam/optim/bundle_adjustment.hpp"
 
@@ -34,10 +38,10 @@ struct GravityOptions {
 
 class GravityMeasurements {
  public:
-  // `imu`: time-ordered samples; `cam_from_imu`: rotation from the IMU frame to the camera frame
-  // (the lever arm does not matter for a mean force); `frames`: the tracked trajectory.
-  GravityMeasurements(std::vector<ImuSample> imu, const Eigen::Matrix3d& cam_from_imu,
-                      Trajectory frames, const GravityOptions& options = {});
+  // `imu`: the samples; `imu_from_cam`: the camera's pose in the IMU frame (ORB-SLAM3's
+  // IMU.T_b_c1); `frames`: the tracked trajectory.
+  GravityMeasurements(std::vector<ImuSample> imu, const SE3& imu_from_cam, Trajectory frames,
+                      const GravityOptions& options = {});
 
   // The measurement of a keyframe taken at `timestamp` (its pose index left 0), or nothing.
   std::optional<optim::BundleProblem::Gravity> at(double timestamp) const;
@@ -48,8 +52,8 @@ class GravityMeasurements {
   std::optional<Eigen::Vector3d> velocity(double t) const;
   std::optional<Eigen::Vector3d> mean_force(double t) const;  // IMU frame at t
 
-  std::vector<ImuSample> imu_;
-  Eigen::Matrix3d cam_from_imu_;
+  std::vector<ImuSample> imu_;  // accel moved to the camera's origin
+  SO3 cam_from_imu_;
   Trajectory frames_;
   GravityOptions options_;
 };

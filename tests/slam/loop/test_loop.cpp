@@ -12,6 +12,7 @@
 #include "slam/eval/trajectory_error.hpp"
 #include "slam/loop/detection.hpp"
 #include "slam/loop/loop_closer.hpp"
+#include "slam/loop/verification.hpp"
 #include "tests/slam/support/slam_test_support.hpp"
 
 namespace coloc::slam::loop {
@@ -259,6 +260,21 @@ TEST(LoopDetection, NeedsConsecutiveConfirmations) {
   detect(kPerTurn / 2);  // half a turn away: the start is not among its candidates
   EXPECT_TRUE(detect(kPerTurn + 2).consistent.empty());
   EXPECT_TRUE(detect(kPerTurn + 3).consistent.empty());
+}
+
+// The default drift bounds against loops measured on the twin building and fr1/rpy (the
+// corrections their `loop closed` log lines gave): every true one passes, the look-alike that
+// failed a building run does not.
+TEST(LoopPlausibility, DefaultBoundsPassTrueLoopsAndRejectTheBuildingsLookAlike) {
+  const LoopOptions o;
+  EXPECT_TRUE(plausible_correction(0.266, 0.0062, 85.05, o));  // building, largest true
+  EXPECT_TRUE(plausible_correction(0.087, 0.0159, 84.83, o));
+  EXPECT_TRUE(plausible_correction(0.108, 0.0664, 0.26, o));  // fr1/rpy
+  EXPECT_TRUE(plausible_correction(0.108, 0.0540, 0.27, o));
+  double allowed_m = 0.0, allowed_rad = 0.0;
+  EXPECT_FALSE(plausible_correction(1.954, 0.0079, 82.77, o, &allowed_m, &allowed_rad));
+  EXPECT_NEAR(allowed_m, 0.12 + 0.015 * 82.77, 1e-12);
+  EXPECT_NEAR(allowed_rad, 0.1 + 0.005 * 82.77, 1e-12);
 }
 
 TEST(LoopOptions, CheckNamesTheField) {
