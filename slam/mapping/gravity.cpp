@@ -12,6 +12,7 @@ void GravityOptions::check() const {
   if (!(half_window > 0.0)) throw Error("GravityOptions.half_window must be > 0");
   if (!(velocity_half_window > 0.0)) throw Error("GravityOptions.velocity_half_window must be > 0");
   if (!(max_sample_gap > 0.0)) throw Error("GravityOptions.max_sample_gap must be > 0");
+  if (!(max_frame_gap > 0.0)) throw Error("GravityOptions.max_frame_gap must be > 0");
   if (!(model.magnitude > 0.0)) throw Error("GravityOptions.model.magnitude must be > 0");
   if (!(model.sigma > 0.0)) throw Error("GravityOptions.model.sigma must be > 0");
   if (!(model.accel_bias_sigma > 0.0))
@@ -56,8 +57,8 @@ std::optional<Eigen::Vector3d> GravityMeasurements::position(double t) const {
   }
   const StampedPose& a = *(after - 1);
   const StampedPose& b = *after;
-  // A lost stretch (no poses) is not bridged by a straight line.
-  if (b.timestamp - a.timestamp > 4.0 * options_.max_sample_gap) return std::nullopt;
+  // A lost stretch (no poses) is not bridged by a straight line (max_frame_gap).
+  if (b.timestamp - a.timestamp > options_.max_frame_gap) return std::nullopt;
   const double s = (t - a.timestamp) / (b.timestamp - a.timestamp);
   return (1.0 - s) * a.world_from_cam.translation() + s * b.world_from_cam.translation();
 }

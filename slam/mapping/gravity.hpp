@@ -13,9 +13,8 @@
 //    +-velocity_half_window. Short ones: over +-0.2 s they smooth away a walker's step bounce
 //    (~2 Hz) that the accelerometer still sees, and on the twin building the residuals' RMS
 //    was 0.09 m/s^2 against 0.03 with +-0.05 s (ATE after the BA 7.3 -> 7.0 mm and 9.0 ->
-//    8.1 mm on two maps); with ground-truth poses and a noise-free IMU the model's floor is
-//    0.013 m/s^2 across gravity.
-// A window the IMU samples or the trajectory do not cover gives no measurement.
+//    8.1 mm on two maps). What is left is mostly the tracked positions' noise.
+// A window the IMU samples or the trajectory do not cover (a lost stretch) gives no measurement.
 #include <Eigen/Core>
 #include <optional>
 #include <vector>
@@ -31,6 +30,7 @@ struct GravityOptions {
   double half_window = 0.5;            // seconds
   double velocity_half_window = 0.05;  // seconds
   double max_sample_gap = 0.05;        // seconds: a longer gap in the IMU log voids the window
+  double max_frame_gap = 0.2;          // seconds: nor is a longer one in the trajectory bridged
   optim::BundleProblem::GravityModel model;
   // Throws coloc::Error naming the first invalid field.
   void check() const;

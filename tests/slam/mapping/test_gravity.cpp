@@ -66,6 +66,13 @@ TEST(GravityMeasurements, WindowsOutsideTheLogOrTheTrajectoryOrAcrossAGapGiveNon
   EXPECT_FALSE(g.at(3.0));  // a 0.2 s hole in the IMU log
   EXPECT_FALSE(g.at(3.8));  // after the log's end
   EXPECT_FALSE(g.at(10.0));
+  // Tracking lost for 0.3 s where the window's first velocity is taken.
+  Trajectory lost = frames(m, 0.0, 4.0);
+  std::erase_if(lost,
+                [](const StampedPose& p) { return p.timestamp > 1.35 && p.timestamp < 1.65; });
+  const GravityMeasurements h(imu_log(m, 0.0, 4.0), kImuFromCam, lost);
+  EXPECT_FALSE(h.at(2.0));
+  EXPECT_TRUE(h.at(2.5));
 }
 
 TEST(GravityMeasurements, OptionsAreChecked) {
