@@ -90,10 +90,7 @@ RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
     std::optional<slam::mapping::GravityMeasurements> gravity;
     if (run.gravity && run.load.empty() && truth && !truth->imu().empty() &&
         settings.imu_from_cam) {
-      const Eigen::Matrix4d& t = *settings.imu_from_cam;
-      const SE3 imu_from_cam(SO3(Eigen::Quaterniond(Eigen::Matrix3d(t.topLeftCorner<3, 3>()))),
-                             t.topRightCorner<3, 1>());
-      gravity.emplace(truth->imu(), imu_from_cam, slam.trajectory());
+      gravity.emplace(truth->imu(), *settings.imu_from_cam, slam.trajectory());
     }
     if (gravity && run.compare_gravity) {
       slam.optimize_map();

@@ -278,7 +278,7 @@ Settings read_settings(const std::string& text, const std::filesystem::path& pat
   s.readout_time = keys.number("Camera.readoutTime");
   if (s.readout_time && !(*s.readout_time >= 0.0 && *s.readout_time < 1.0))
     keys.fail("Camera.readoutTime", "must be in [0, 1) seconds");
-  s.imu_from_cam = keys.transform("IMU.T_b_c1");
+  if (const auto t = keys.transform("IMU.T_b_c1")) s.imu_from_cam = SE3::from_matrix(*t);
   s.depth = read_depth(keys, s.file_version, intrinsic_matrix(s.camera)(0, 0));
   s.orb = read_orb(keys);
   s.markers.dictionary = keys.text("Markers.dictionary").value_or(s.markers.dictionary);

@@ -14,7 +14,6 @@
 // warning naming it: nothing reads it. A missing
 // required key or a value of the wrong type is a coloc::Error naming the key and the file.
 
-#include <Eigen/Core>
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -22,6 +21,7 @@
 #include <vector>
 
 #include "slam/core/camera.hpp"
+#include "slam/core/se3.hpp"
 
 namespace coloc::settings {
 
@@ -60,7 +60,7 @@ struct Settings {
   // IMU.T_b_c1 (ORB-SLAM3's key): the camera's pose in the IMU ("body") frame, a 4x4
   // !!opencv-matrix. With it, a sequence's IMU log ties the map's tilt to gravity in the global
   // BA (slam/mapping/gravity.hpp). The other IMU.* keys are not read.
-  std::optional<Eigen::Matrix4d> imu_from_cam;
+  std::optional<SE3> imu_from_cam;
   // Camera.RGB: the channel order of the colour images the camera hands to tracking (1 RGB,
   // 0 BGR). Images decoded from files by OpenCV are BGR whatever this says.
   bool rgb_order = false;

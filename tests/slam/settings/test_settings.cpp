@@ -155,8 +155,8 @@ TEST(Settings, ImuPlacement) {
       "   data: [0., -1., 0., 0.02, 1., 0., 0., 0.005, 0., 0., 1., 0.01, 0., 0., 0., 1.]\n";
   const Settings s = load_settings(write("imu.yaml", std::string(kMinimal) + matrix));
   ASSERT_TRUE(s.imu_from_cam);
-  EXPECT_NEAR((*s.imu_from_cam)(0, 1), -1.0, 1e-7);
-  EXPECT_NEAR((*s.imu_from_cam)(1, 3), 0.005, 1e-7);
+  EXPECT_NEAR(s.imu_from_cam->matrix()(0, 1), -1.0, 1e-7);
+  EXPECT_NEAR(s.imu_from_cam->matrix()(1, 3), 0.005, 1e-7);
   EXPECT_TRUE(s.warnings.empty());
   // Not a 4x4, not a rotation, not a matrix: named errors.
   expect_error(write("imu_3x3.yaml", std::string(kMinimal) +
