@@ -23,6 +23,14 @@ std::optional<eval::AteResult> ate_of(const dataset::Sequence& sequence, const T
   }
 }
 
+// The gyro's noise figures as the settings give them (ORB-SLAM3's IMU.NoiseGyro, IMU.GyroWalk).
+slam::mapping::GyroOptions gyro_options(const settings::Settings& settings) {
+  slam::mapping::GyroOptions o;
+  o.model.noise_density = settings.gyro_noise_density.value_or(o.model.noise_density);
+  o.model.random_walk = settings.gyro_random_walk.value_or(o.model.random_walk);
+  return o;
+}
+
 }  // namespace
 
 RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& settings,
@@ -88,15 +96,19 @@ RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
     // Not for a continued map: its earlier keyframes' timestamps belong to another recording's
     // clock, which this IMU log must not be read at.
     std::optional<slam::mapping::GravityMeasurements> gravity;
-    if (run.gravity && run.load.empty() && truth && !truth->imu().empty() &&
-        settings.imu_from_cam) {
+    std::optional<slam::mapping::GyroMeasurements> gyro;
+    if (run.imu && run.load.empty() && truth && !truth->imu().empty() && settings.imu_from_cam) {
       gravity.emplace(truth->imu(), *settings.imu_from_cam, slam.trajectory());
+      gyro.emplace(truth->imu(), *settings.imu_from_cam, gyro_options(settings));
     }
-    if (gravity && run.compare_gravity) {
+    if (gravity && run.compare_imu) {
       slam.optimize_map();
       r.ate_vision = ate_of_run(slam.trajectory());
+      slam.optimize_map({}, {.gravity = &*gravity});
+      r.ate_gravity = ate_of_run(slam.trajectory());
     }
-    r.global_ba = slam.optimize_map({}, gravity ? &*gravity : nullptr);
+    r.global_ba = slam.optimize_map(
+        {}, {.gravity = gravity ? &*gravity : nullptr, .gyro = gyro ? &*gyro : nullptr});
   }
   r.summary = slam.summary();
   r.trajectory = slam.trajectory();

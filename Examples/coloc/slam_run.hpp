@@ -23,12 +23,14 @@ struct RunOptions {
   bool realtime = false;    // a sequence's frames arrive at their timestamps (dataset::paced)
   bool global_ba = true;    // of the finished map
   bool loop = true;         // loop closing
-  // The global BA ties the tilt to gravity when the sequence has an IMU log and the settings
-  // place the IMU (IMU.T_b_c1); not yet for a continued map (`load`).
-  bool gravity = true;
-  // With gravity, a bench's A/B on one map: the final BA first runs without it
-  // (RunResult::ate_vision), then with it from there.
-  bool compare_gravity = false;
+  // The global BA ties the tilt to gravity and the keyframes' relative rotations to the gyro
+  // when the sequence has an IMU log and the settings place the IMU (IMU.T_b_c1); not yet for a
+  // continued map (`load`).
+  bool imu = true;
+  // With the IMU, a bench's A/B on one map: the final BA first runs without it
+  // (RunResult::ate_vision), then with gravity only (ate_gravity), then with gravity and the
+  // gyro, each from where the one before left the map.
+  bool compare_imu = false;
   std::filesystem::path load;  // a saved map to continue (empty: a new map)
   // Called with the System before the first frame (a live viewer attaches itself), and before
   // the System is destroyed, also when the run fails (it detaches).
@@ -45,8 +47,9 @@ struct RunResult {
   // The trajectory as tracking left it (before the global BA), and the BA's report.
   std::optional<eval::AteResult> ate_online;
   std::optional<slam::mapping::GlobalBaReport> global_ba;
-  // The same map after a global BA without gravity (RunOptions::compare_gravity).
-  std::optional<eval::AteResult> ate_vision;
+  // The same map after a global BA without the IMU, then with gravity only
+  // (RunOptions::compare_imu).
+  std::optional<eval::AteResult> ate_vision, ate_gravity;
   std::size_t skipped_frames = 0;  // unreadable images (named in the log)
 };
 

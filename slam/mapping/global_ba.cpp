@@ -2,10 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
+#include <utility>
 
 #include "slam/core/timing.hpp"
 #include "slam/mapping/ba_window.hpp"
 #include "slam/optim/gravity_cost.hpp"
+#include "slam/optim/gyro_cost.hpp"
 
 namespace coloc::slam::mapping {
 
@@ -52,10 +55,49 @@ double rms_gravity(const optim::BundleProblem& problem, const optim::BundleResul
   return std::sqrt(sum / static_cast<double>(problem.gravity.size()));
 }
 
+// RMS angle (rad) of the gyro residuals at the problem's poses, and the mean bias.
+std::pair<double, Eigen::Vector3d> gyro_fit(const optim::BundleProblem& problem,
+                                            const optim::BundleResult& result) {
+  if (problem.gyro.empty()) return {0.0, Eigen::Vector3d::Zero()};
+  double sum = 0.0;
+  Eigen::Vector3d bias_sum = Eigen::Vector3d::Zero();
+  for (const auto& g : problem.gyro) {
+    const optim::GyroCost cost(g.cam_a_from_cam_b, g.bias_jacobian, 1.0);
+    double a[7], b[7];
+    optim::pose_to_array(problem.poses[g.pose_a].cam_from_world, a);
+    optim::pose_to_array(problem.poses[g.pose_b].cam_from_world, b);
+    const Eigen::Vector3d& bias = result.gyro_bias[g.pose_a];
+    const double* params[3] = {a, b, bias.data()};
+    Eigen::Vector3d r;
+    cost.Evaluate(params, r.data(), nullptr);
+    sum += r.squaredNorm();
+    bias_sum += bias;
+  }
+  const double n = static_cast<double>(problem.gyro.size());
+  return {std::sqrt(sum / n), bias_sum / n};
+}
+
+// Consecutive keyframes in time (creation order is not time order in a continued map).
+void add_gyro(const map::Map& m, const std::vector<KeyframeId>& pose_ids,
+              const GyroMeasurements& gyro, optim::BundleProblem& problem) {
+  problem.gyro_model = gyro.options().model;
+  std::vector<std::pair<double, std::uint32_t>> by_time;
+  for (std::size_t i = 0; i < pose_ids.size(); ++i)
+    by_time.emplace_back(m.keyframe(pose_ids[i])->frame.timestamp, static_cast<std::uint32_t>(i));
+  std::sort(by_time.begin(), by_time.end());
+  for (std::size_t i = 1; i < by_time.size(); ++i) {
+    auto g = gyro.between(by_time[i - 1].first, by_time[i].first);
+    if (!g) continue;
+    g->pose_a = by_time[i - 1].second;
+    g->pose_b = by_time[i].second;
+    problem.gyro.push_back(*g);
+  }
+}
+
 }  // namespace
 
 GlobalBaReport global_bundle_adjustment(map::SharedMap& shared, const GlobalBaOptions& options,
-                                        const GravityMeasurements* gravity) {
+                                        const InertialMeasurements& imu) {
   options.check();
   GlobalBaReport report;
   BaWindow w;
@@ -68,10 +110,11 @@ GlobalBaReport global_bundle_adjustment(map::SharedMap& shared, const GlobalBaOp
       all.push_back(id);
     std::sort(all.begin(), all.end());  // deterministic problem order
     w = make_window(m, all);
-    if (gravity) {
-      w.problem.gravity_model = gravity->options().model;
+    if (imu.gyro) add_gyro(m, w.pose_ids, *imu.gyro, w.problem);
+    if (imu.gravity) {
+      w.problem.gravity_model = imu.gravity->options().model;
       for (std::size_t i = 0; i < w.pose_ids.size(); ++i) {
-        auto g = gravity->at(m.keyframe(w.pose_ids[i])->frame.timestamp);
+        auto g = imu.gravity->at(m.keyframe(w.pose_ids[i])->frame.timestamp);
         if (!g) continue;
         g->pose = static_cast<std::uint32_t>(i);
         w.problem.gravity.push_back(*g);
@@ -97,6 +140,8 @@ GlobalBaReport global_bundle_adjustment(map::SharedMap& shared, const GlobalBaOp
   report.gravity_keyframes = w.problem.gravity.size();
   report.accel_bias = result.accel_bias;
   report.gravity_rms = rms_gravity(w.problem, result);
+  report.gyro_pairs = w.problem.gyro.size();
+  std::tie(report.gyro_rms, report.gyro_bias) = gyro_fit(w.problem, result);
   return report;
 }
 

@@ -6,6 +6,7 @@
 // Frames follow through their reference keyframes (System::trajectory()).
 #include "slam/map/shared_map.hpp"
 #include "slam/mapping/gravity.hpp"
+#include "slam/mapping/gyro.hpp"
 #include "slam/optim/bundle_adjustment.hpp"
 
 namespace coloc::slam::mapping {
@@ -29,11 +30,23 @@ struct GlobalBaReport {
   std::size_t gravity_keyframes = 0;
   Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
   double gravity_rms = 0.0;
+  // With the gyro: pairs of consecutive keyframes tied, the RMS angle between the gyro's
+  // rotation (bias applied) and the map's after (rad), and the mean gyro bias (camera frame,
+  // rad/s).
+  std::size_t gyro_pairs = 0;
+  double gyro_rms = 0.0;
+  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();
+};
+
+// What an IMU beside the camera adds to the global BA; either may be null.
+struct InertialMeasurements {
+  const GravityMeasurements* gravity = nullptr;  // the keyframes' tilt
+  const GyroMeasurements* gyro = nullptr;        // rotations between consecutive keyframes
 };
 
 // Takes the map lock to copy the problem out and to write the result back, not while solving.
-// `gravity`: accelerometer measurements for the keyframes (their timestamps), or none.
+// `imu`: measurements at the keyframes' timestamps, or none.
 GlobalBaReport global_bundle_adjustment(map::SharedMap& shared, const GlobalBaOptions& options = {},
-                                        const GravityMeasurements* gravity = nullptr);
+                                        const InertialMeasurements& imu = {});
 
 }  // namespace coloc::slam::mapping

@@ -13,6 +13,7 @@
 
 #include "slam/core/error.hpp"
 #include "slam/optim/gravity_cost.hpp"
+#include "slam/optim/gyro_cost.hpp"
 
 namespace coloc::slam::optim {
 
@@ -177,6 +178,7 @@ struct Extras {
   double delta = 0.0;  // readout change (seconds)
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
   Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> gyro_bias;  // per pose
 };
 
 void add_gravity(const BundleProblem& problem, std::vector<double>& pose_params, Extras& x,
@@ -197,6 +199,31 @@ void add_gravity(const BundleProblem& problem, std::vector<double>& pose_params,
       new ceres::NormalPrior(Eigen::Matrix3d::Identity() / m.accel_bias_sigma,
                              Eigen::Vector3d::Zero()),
       nullptr, x.accel_bias.data());
+}
+
+void add_gyro(const BundleProblem& problem, std::vector<double>& pose_params, Extras& x,
+              bool robust, ceres::Problem& ceres_problem) {
+  const BundleProblem::GyroModel& m = problem.gyro_model;
+  double* first_bias = nullptr;
+  for (const BundleProblem::Gyro& g : problem.gyro) {
+    double* a = &pose_params[std::size_t{7} * g.pose_a];
+    double* b = &pose_params[std::size_t{7} * g.pose_b];
+    // Poses without an observation in this solve are not parameter blocks: no gauge to hold.
+    if (!ceres_problem.HasParameterBlock(a) || !ceres_problem.HasParameterBlock(b)) continue;
+    double* bias_a = x.gyro_bias[g.pose_a].data();
+    double* bias_b = x.gyro_bias[g.pose_b].data();
+    const double sigma = m.noise_density * std::sqrt(g.dt);
+    // A saturated or knocked gyro must not bend the map.
+    ceres_problem.AddResidualBlock(new GyroCost(g.cam_a_from_cam_b, g.bias_jacobian, sigma),
+                                   robust ? new ceres::HuberLoss(3.0) : nullptr, a, b, bias_a);
+    const double walk = m.random_walk * std::sqrt(g.dt);
+    ceres_problem.AddResidualBlock(new GyroBiasWalkCost(walk), nullptr, bias_a, bias_b);
+    if (!first_bias) first_bias = bias_a;
+  }
+  if (!first_bias) return;
+  ceres_problem.AddResidualBlock(
+      new ceres::NormalPrior(Eigen::Matrix3d::Identity() / m.bias_sigma, Eigen::Vector3d::Zero()),
+      nullptr, first_bias);
 }
 
 // One Ceres solve over the observations not flagged in `skip`; the readout change is a
@@ -244,6 +271,7 @@ int solve(BundleProblem& problem, std::vector<double>& pose_params, Extras& x, c
   if (ceres_problem.NumResidualBlocks() == 0) return 0;
   ceres::SphereManifold<3> sphere;
   add_gravity(problem, pose_params, x, robust, &sphere, ceres_problem);
+  add_gyro(problem, pose_params, x, robust, ceres_problem);
   if (ceres_problem.HasParameterBlock(&delta)) {
     const BundleProblem::Readout& r = problem.readout;
     const Eigen::Matrix<double, 1, 1> a =
@@ -305,6 +333,7 @@ BundleResult bundle_adjust(BundleProblem& problem, const Intrinsics& k,
     pose_to_array(problem.poses[i].cam_from_world, &pose_params[7 * i]);
 
   Extras x;
+  if (!problem.gyro.empty()) x.gyro_bias.assign(problem.poses.size(), Eigen::Vector3d::Zero());
   if (!problem.gravity.empty()) {
     // Up starts as the mean of what each keyframe's measurement says it is.
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -328,6 +357,7 @@ BundleResult bundle_adjust(BundleProblem& problem, const Intrinsics& k,
     result.up_world = x.up;
     result.accel_bias = x.accel_bias;
   }
+  result.gyro_bias = std::move(x.gyro_bias);
   result.aborted = abort && abort->load();
   for (std::size_t i = 0; i < problem.poses.size(); ++i) {
     problem.poses[i].cam_from_world = pose_from_array(&pose_params[7 * i]);

@@ -61,12 +61,29 @@ struct BundleProblem {
     double sigma = 0.02;            // m/s^2 per axis, of one keyframe's Gravity
     double accel_bias_sigma = 0.1;  // m/s^2 per axis: a prior for sequences that turn little
   };
+  // A gyro between two keyframes (mapping/gyro.hpp): the rotation cam_a_from_cam_b it
+  // integrated at zero bias, and how that changes with the bias (camera frame, rad/s), to first
+  // order: measured(b) = measured * exp(bias_jacobian * b). Each keyframe with a Gyro has a bias
+  // of its own; consecutive ones are tied by the bias random walk (optim::GyroCost).
+  struct Gyro {
+    std::uint32_t pose_a = 0, pose_b = 0;  // indices into poses; a earlier than b
+    SO3 cam_a_from_cam_b;
+    Eigen::Matrix3d bias_jacobian = Eigen::Matrix3d::Zero();
+    double dt = 0.0;  // seconds integrated
+  };
+  struct GyroModel {
+    double noise_density = 1.7e-4;  // rad/s/sqrt(Hz) (ORB-SLAM3's IMU.NoiseGyro)
+    double random_walk = 1.9e-5;    // rad/s^2/sqrt(Hz) (IMU.GyroWalk)
+    double bias_sigma = 0.05;       // rad/s per axis: a prior on the first keyframe's bias
+  };
   std::vector<Pose> poses;
   std::vector<Eigen::Vector3d> points;  // world, metres
   std::vector<Observation> observations;
   Readout readout;
   std::vector<Gravity> gravity;
   GravityModel gravity_model;
+  std::vector<Gyro> gyro;
+  GyroModel gyro_model;
 };
 
 struct BundleOptions {
@@ -88,6 +105,9 @@ struct BundleResult {
   // accelerometer bias (camera frame, m/s^2). Zero without.
   Eigen::Vector3d up_world = Eigen::Vector3d::Zero();
   Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
+  // With BundleProblem::gyro: the gyro bias (camera frame, rad/s) per pose, zero for poses
+  // without a Gyro; empty without.
+  std::vector<Eigen::Vector3d> gyro_bias;
 };
 
 // Optimizes `problem` in place. `abort` (may be null) is polled between iterations.

@@ -279,6 +279,12 @@ Settings read_settings(const std::string& text, const std::filesystem::path& pat
   if (s.readout_time && !(*s.readout_time >= 0.0 && *s.readout_time < 1.0))
     keys.fail("Camera.readoutTime", "must be in [0, 1) seconds");
   if (const auto t = keys.transform("IMU.T_b_c1")) s.imu_from_cam = SE3::from_matrix(*t);
+  s.gyro_noise_density = keys.number("IMU.NoiseGyro");
+  if (s.gyro_noise_density && !(*s.gyro_noise_density > 0.0 && *s.gyro_noise_density < 1.0))
+    keys.fail("IMU.NoiseGyro", "must be in (0, 1) rad/s/sqrt(Hz)");
+  s.gyro_random_walk = keys.number("IMU.GyroWalk");
+  if (s.gyro_random_walk && !(*s.gyro_random_walk > 0.0 && *s.gyro_random_walk < 1.0))
+    keys.fail("IMU.GyroWalk", "must be in (0, 1) rad/s^2/sqrt(Hz)");
   s.depth = read_depth(keys, s.file_version, intrinsic_matrix(s.camera)(0, 0));
   s.orb = read_orb(keys);
   s.markers.dictionary = keys.text("Markers.dictionary").value_or(s.markers.dictionary);

@@ -10,8 +10,9 @@
 // Markers.*, and Coloc.<option> for the SLAM options users tune (slam/system/tuning.hpp names
 // them; an unknown one is an error there). ORB-SLAM3's System.LoadAtlasFromFile and
 // System.SaveAtlasToFile name the map database (slam/mapdb) to continue and to save, and
-// IMU.T_b_c1 places an IMU. Any other key (ORB-SLAM3's IMU noise figures, ...) is reported as a
-// warning naming it: nothing reads it. A missing
+// IMU.T_b_c1, IMU.NoiseGyro and IMU.GyroWalk place and describe an IMU. Any other key
+// (ORB-SLAM3's accelerometer noise figures, ...) is reported as a warning naming it: nothing
+// reads it. A missing
 // required key or a value of the wrong type is a coloc::Error naming the key and the file.
 
 #include <filesystem>
@@ -58,9 +59,15 @@ struct Settings {
   // Absent (users' ORB-SLAM files): unknown, estimated online by local mapping.
   std::optional<double> readout_time;
   // IMU.T_b_c1 (ORB-SLAM3's key): the camera's pose in the IMU ("body") frame, a 4x4
-  // !!opencv-matrix. With it, a sequence's IMU log ties the map's tilt to gravity in the global
-  // BA (slam/mapping/gravity.hpp). The other IMU.* keys are not read.
+  // !!opencv-matrix. With it, a sequence's IMU log ties the map's tilt to gravity and the
+  // keyframes' relative rotations to the gyro in the global BA (slam/mapping/gravity.hpp,
+  // slam/mapping/gyro.hpp).
   std::optional<SE3> imu_from_cam;
+  // IMU.NoiseGyro (rad/s/sqrt(Hz)) and IMU.GyroWalk (rad/s^2/sqrt(Hz)), ORB-SLAM3's keys: the
+  // gyro's noise density and bias random walk. Absent: optim::BundleProblem::GyroModel's
+  // defaults. The accelerometer's figures are not read (gravity has its own model).
+  std::optional<double> gyro_noise_density;
+  std::optional<double> gyro_random_walk;
   // Camera.RGB: the channel order of the colour images the camera hands to tracking (1 RGB,
   // 0 BGR). Images decoded from files by OpenCV are BGR whatever this says.
   bool rgb_order = false;

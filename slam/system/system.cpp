@@ -136,10 +136,9 @@ mapdb::SaveReport System::save_map(const std::filesystem::path& path,
 }
 
 mapping::GlobalBaReport System::optimize_map(const mapping::GlobalBaOptions& options,
-                                             const mapping::GravityMeasurements* gravity) {
+                                             const mapping::InertialMeasurements& imu) {
   shutdown();
-  const mapping::GlobalBaReport report =
-      mapping::global_bundle_adjustment(*shared_, options, gravity);
+  const mapping::GlobalBaReport report = mapping::global_bundle_adjustment(*shared_, options, imu);
   spdlog::debug(
       "global BA: {} keyframes, {} points, {} observations ({} outliers removed), rms {:.3f} -> "
       "{:.3f} px, {} iterations, {:.0f} ms",
@@ -151,6 +150,12 @@ mapping::GlobalBaReport System::optimize_map(const mapping::GlobalBaOptions& opt
         "({:.3f}, {:.3f}, {:.3f}) m/s^2 (camera frame)",
         report.gravity_keyframes, report.gravity_rms, report.accel_bias.x(), report.accel_bias.y(),
         report.accel_bias.z());
+  if (report.gyro_pairs > 0)
+    spdlog::info(
+        "global BA: gyro between {} keyframe pairs, residual rms {:.3f} mrad, mean gyro bias "
+        "({:.4f}, {:.4f}, {:.4f}) rad/s (camera frame)",
+        report.gyro_pairs, 1e3 * report.gyro_rms, report.gyro_bias.x(), report.gyro_bias.y(),
+        report.gyro_bias.z());
   return report;
 }
 

@@ -70,9 +70,10 @@ class System {
   void shutdown();
   // Global bundle adjustment of the finished map (shuts local mapping down first). For offline
   // mapping: the trajectory and the map then reflect all observations at once.
-  // `gravity`: accelerometer measurements that tie the keyframes' tilt to gravity, or none.
+  // `imu`: an IMU's measurements that tie the keyframes' tilt to gravity and their relative
+  // rotations to the gyro, or none.
   mapping::GlobalBaReport optimize_map(const mapping::GlobalBaOptions& options = {},
-                                       const mapping::GravityMeasurements* gravity = nullptr);
+                                       const mapping::InertialMeasurements& imu = {});
 
   // Saves the map (slam/mapdb). While mapping runs, a live save (tracking is held up only for
   // short copies; the file is the map as of one moment); after shutdown(), the finished map.

@@ -76,7 +76,7 @@ TEST(Settings, FisheyeOwnSectionsAndUnknownKeys) {
                           "Camera1.cy: 256.8\nCamera1.k1: 0.003\nCamera1.k2: 0.0007\n"
                           "Camera1.k3: -0.002\nCamera1.k4: 0.0002\nMarkers.dictionary: "
                           "\"DICT_APRILTAG_36h11\"\nMarkers.size: 0.2\nFusion.processNoise: "
-                          "0.002\nOSC.port: 9000\nCamera.fsp: 30\nIMU.NoiseGyro: 1.7e-4\n"
+                          "0.002\nOSC.port: 9000\nCamera.fsp: 30\nIMU.NoiseAcc: 2.0e-3\n"
                           "Coloc.tracking.min_local_inliers: 25\nColoc.mapping.local_ba: 0\n"
                           "Stereo.T_c1_c2: !!opencv-matrix\n  rows: 2\n  cols: 2\n  dt: f\n"
                           "  data: [1.0, 0.5, -2.0, 0.25]\n");
@@ -91,7 +91,7 @@ TEST(Settings, FisheyeOwnSectionsAndUnknownKeys) {
                                                             {"mapping.local_ba", 0.0}}));
   // Keys nothing reads are named, in file order: the misspelt one, and blocks no verb uses.
   EXPECT_EQ(s.warnings, (std::vector<std::string>{"Fusion.processNoise", "OSC.port", "Camera.fsp",
-                                                  "IMU.NoiseGyro", "Stereo.T_c1_c2"}));
+                                                  "IMU.NoiseAcc", "Stereo.T_c1_c2"}));
 }
 
 // ORB-SLAM3 v1.0's atlas keys name the map database to continue and to save; a bare name gets
@@ -167,6 +167,21 @@ TEST(Settings, ImuPlacement) {
   scaled.replace(scaled.find("[0., -1."), 8, "[0., -2.");
   expect_error(write("imu_scaled.yaml", std::string(kMinimal) + scaled), "IMU.T_b_c1");
   expect_error(write("imu_number.yaml", std::string(kMinimal) + "IMU.T_b_c1: 3\n"), "IMU.T_b_c1");
+}
+
+TEST(Settings, GyroNoiseFigures) {
+  const Settings none = load_settings(write("no_gyro.yaml", kMinimal));
+  EXPECT_FALSE(none.gyro_noise_density);
+  EXPECT_FALSE(none.gyro_random_walk);
+  const Settings s = load_settings(
+      write("gyro.yaml", std::string(kMinimal) + "IMU.NoiseGyro: 2.4e-4\nIMU.GyroWalk: 2.0e-5\n"));
+  EXPECT_DOUBLE_EQ(*s.gyro_noise_density, 2.4e-4);
+  EXPECT_DOUBLE_EQ(*s.gyro_random_walk, 2.0e-5);
+  EXPECT_TRUE(s.warnings.empty());
+  expect_error(write("gyro_neg.yaml", std::string(kMinimal) + "IMU.NoiseGyro: -1e-4\n"),
+               "IMU.NoiseGyro");
+  expect_error(write("gyro_text.yaml", std::string(kMinimal) + "IMU.GyroWalk: \"fast\"\n"),
+               "IMU.GyroWalk");
 }
 
 TEST(Settings, UnreadableFilesAreErrors) {
