@@ -23,6 +23,10 @@ std::optional<eval::AteResult> ate_of(const dataset::Sequence& sequence, const T
   }
 }
 
+// Keyframes mapped sequentially while an unknown readout is estimated, where the source can wait
+// (TrackingOptions::readout_settle_keyframes has the measurements behind it).
+constexpr std::size_t kReadoutSettleKeyframes = 30;
+
 // The gyro's noise figures as the settings give them (ORB-SLAM3's IMU.NoiseGyro, IMU.GyroWalk).
 slam::mapping::GyroOptions gyro_options(const settings::Settings& settings) {
   slam::mapping::GyroOptions o;
@@ -38,7 +42,9 @@ RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& 
                    const std::function<void(const slam::system::System&)>& finished) {
   auto frames = dataset::frames_of(sequence);
   if (run.realtime) frames = dataset::paced(std::move(frames));
-  return run_slam(*frames, &sequence, settings, vocabulary, run, finished);
+  RunOptions options = run;
+  options.source_waits = !run.realtime;
+  return run_slam(*frames, &sequence, settings, vocabulary, options, finished);
 }
 
 RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
@@ -47,6 +53,7 @@ RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
                    const std::function<void(const slam::system::System&)>& finished) {
   slam::system::SystemOptions options;
   options.tracking.wait_for_sink = run.sequential;
+  if (run.source_waits) options.tracking.readout_settle_keyframes = kReadoutSettleKeyframes;
   options.loop.enabled = run.loop;
   std::unique_ptr<slam::system::System> system;
   {

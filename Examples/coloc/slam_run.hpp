@@ -21,8 +21,12 @@ namespace coloc::cli {
 struct RunOptions {
   bool sequential = false;  // tracking waits for local mapping after each keyframe
   bool realtime = false;    // a sequence's frames arrive at their timestamps (dataset::paced)
-  bool global_ba = true;    // of the finished map
-  bool loop = true;         // loop closing
+  // The frame source can wait (recorded frames, unpaced): tracking then lets local mapping
+  // settle an unknown rolling-shutter readout first (TrackingOptions::readout_settle_keyframes).
+  // Set by the sequence overload of run_slam; a live camera cannot wait.
+  bool source_waits = false;
+  bool global_ba = true;  // of the finished map
+  bool loop = true;       // loop closing
   // The global BA ties the tilt to gravity and the keyframes' relative rotations to the gyro
   // when the sequence has an IMU log and the settings place the IMU (IMU.T_b_c1); not yet for a
   // continued map (`load`).

@@ -137,7 +137,10 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
   }
   if (sink_ && (result.keyframe || make_keyframe)) {
     sink_->push({reference_, grey.clone()});
-    if (options_.wait_for_sink) sink_->wait_idle();
+    ++keyframes_made_;
+    if (options_.wait_for_sink ||
+        (shared_.estimate_readout && keyframes_made_ <= options_.readout_settle_keyframes))
+      sink_->wait_idle();
   }
   result.keyframe = result.keyframe || make_keyframe;
   result.state = state_;

@@ -83,6 +83,15 @@ struct TrackingOptions {
   // After each new keyframe, wait until the sink has processed it: deterministic, slower (tests,
   // the --sequential runs that separate what tracking does from when).
   bool wait_for_sink = false;
+  // While local mapping estimates an unknown rolling-shutter readout (settings without
+  // Camera.readoutTime), wait for the sink after each of the first this many keyframes, as
+  // wait_for_sink does. The estimate moves once per local BA; a tracker that outruns the mapper
+  // (recorded frames read back to back: 4x real time) meets a sequence's first fast turns with
+  // an estimate a few BAs behind, and below ~17 ms a partial compensation is worse than none.
+  // With the ORB-SLAM3 TUM1 file on fr1/rpy, unpaced, 10 runs each: 0 keyframes 22.7 mm median
+  // (std 3.0), 20 17.1 (0.6), 30 15.3 (0.9), 40 14.9 (0.8). Only for sources that can wait:
+  // a live camera (or frames paced as one) would drop or delay frames, so keep it 0 there.
+  std::size_t readout_settle_keyframes = 0;
   // Colour images are RGB (ORB-SLAM's Camera.RGB: 1), else BGR. Only the grey conversion uses it.
   bool rgb_input = false;
   // Keep a FrameRecord per frame (the trajectory); false keeps only the last one, so memory
@@ -198,6 +207,7 @@ class Tracker {
   FrameId last_keyframe_frame_;
   FrameId last_reloc_frame_;
   int matches_inliers_ = 0;
+  std::size_t keyframes_made_ = 0;       // pushed to the sink
   std::array<int, 3> recent_inliers_{};  // of the last tracked frames, newest first
   int keyframes_deferred_ = 0;           // in a row (keyframe_defer_max)
   // The last keyframe this tracker made, and the inliers of the frame it was made from.

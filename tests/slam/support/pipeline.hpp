@@ -1,6 +1,7 @@
 #pragma once
 // Tracking and local mapping wired by hand over one shared map (what System does, opened up so
 // tests can put their own keyframe sinks in between), and a sink that records what reaches it.
+#include <atomic>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -30,7 +31,8 @@ inline TrackerInputs tracker_inputs(const settings::Settings& s) {
   return in;
 }
 
-// Records the keyframe ids pushed to it; `accept` says what accepting() answers.
+// Records the keyframe ids pushed to it and counts the waits; `accept` says what accepting()
+// answers.
 class RecordingSink final : public map::KeyframeSink {
  public:
   bool push(map::KeyframeMessage message) override {
@@ -42,12 +44,13 @@ class RecordingSink final : public map::KeyframeSink {
   std::size_t queued() const override { return 0; }
   bool accepting() const override { return accept; }
   void interrupt() override {}
-  void wait_idle() override {}
+  void wait_idle() override { ++waits; }
   std::vector<KeyframeId> ids() const {
     std::lock_guard lock(mutex_);
     return ids_;
   }
   bool accept = true;
+  std::atomic<int> waits{0};  // wait_idle() calls
 
  private:
   mutable std::mutex mutex_;

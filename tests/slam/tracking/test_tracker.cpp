@@ -63,6 +63,26 @@ TEST(Tracker, MakesNoKeyframeWhileItsSinkDoesNotAccept) {
   EXPECT_EQ(shared.map.keyframe_count(), 1u);
 }
 
+// While local mapping estimates the readout, tracking waits for it after each of the first
+// readout_settle_keyframes keyframes (recorded frames only), and never when the readout is known.
+TEST(Tracker, WaitsForTheSinkWhileTheReadoutSettles) {
+  const SyntheticRgbdScene scene;
+  TrackingOptions options;
+  options.readout_settle_keyframes = 2;
+  for (const bool estimating : {true, false}) {
+    map::SharedMap shared;
+    shared.estimate_readout = estimating;
+    RecordingSink sink;
+    Tracker tracker = make_tracker(shared, &sink, scene, options);
+    for (int i = 0; i < scene.size(); ++i) {
+      const SyntheticFrame f = scene.frame(i);
+      tracker.track(f.color, f.depth, f.timestamp);
+    }
+    ASSERT_GT(sink.ids().size(), 2u);  // more keyframes than waits
+    EXPECT_EQ(sink.waits.load(), estimating ? 2 : 0) << "estimating " << estimating;
+  }
+}
+
 // The frames of `scene` tracked with a sink, frame `blurred` smeared by a Gaussian of `sigma`
 // pixels: which became keyframes, and each frame's inliers.
 struct BlurredRun {
