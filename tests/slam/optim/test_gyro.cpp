@@ -9,6 +9,7 @@
 
 #include "slam/optim/bundle_adjustment.hpp"
 #include "slam/optim/gyro_cost.hpp"
+#include "tests/slam/optim/square_walk.hpp"
 
 namespace coloc::slam::optim {
 namespace {
@@ -81,25 +82,6 @@ TEST(Gyro, BiasWalkCostIsTheScaledDifference) {
   EXPECT_DOUBLE_EQ(ja[0], -2.0);
   EXPECT_DOUBLE_EQ(jb[4], 2.0);
   EXPECT_DOUBLE_EQ(jb[1], 0.0);
-}
-
-// Camera at 1.6 m walking around a 4 m square, looking ahead (camera z forward, y down), one
-// keyframe every 0.5 s.
-std::vector<SE3> square_walk(int n) {
-  std::vector<SE3> world_from_cam;
-  const Eigen::Matrix3d level = (Eigen::Matrix3d() << 0, 0, 1, -1, 0, 0, 0, -1, 0).finished();
-  const Eigen::Vector2d corners[4] = {{0, 0}, {4, 0}, {4, 4}, {0, 4}};
-  for (int i = 0; i < n; ++i) {
-    const double s = 16.0 * i / n;  // metres along the square
-    const int side = static_cast<int>(s / 4.0);
-    const double along = s - 4.0 * side;
-    const Eigen::Vector2d dir = (corners[(side + 1) % 4] - corners[side]) / 4.0;
-    const Eigen::Vector2d xy = corners[side] + along * dir;
-    const double yaw = std::atan2(dir.y(), dir.x());
-    const Eigen::Matrix3d rot = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).matrix() * level;
-    world_from_cam.emplace_back(SO3(Eigen::Quaterniond(rot)), Eigen::Vector3d(xy.x(), xy.y(), 1.6));
-  }
-  return world_from_cam;
 }
 
 double worst_rotation_error(const BundleProblem& problem, const std::vector<SE3>& truth) {
