@@ -100,11 +100,10 @@ RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
   };
   r.ate_online = ate_of_run(slam.trajectory());
   if (run.global_ba) {
-    // Not for a continued map: its earlier keyframes' timestamps belong to another recording's
-    // clock, which this IMU log must not be read at.
+    // In a continued map only this recording's keyframes take the IMU (System::optimize_map).
     std::optional<slam::mapping::GravityMeasurements> gravity;
     std::optional<slam::mapping::GyroMeasurements> gyro;
-    if (run.imu && run.load.empty() && truth && !truth->imu().empty() && settings.imu_from_cam) {
+    if (run.imu && truth && !truth->imu().empty() && settings.imu_from_cam) {
       gravity.emplace(truth->imu(), *settings.imu_from_cam, slam.trajectory());
       gyro.emplace(truth->imu(), *settings.imu_from_cam, gyro_options(settings));
     }

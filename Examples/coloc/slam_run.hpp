@@ -28,8 +28,8 @@ struct RunOptions {
   bool global_ba = true;  // of the finished map
   bool loop = true;       // loop closing
   // The global BA ties the tilt to gravity and the keyframes' relative rotations to the gyro
-  // when the sequence has an IMU log and the settings place the IMU (IMU.T_b_c1); not yet for a
-  // continued map (`load`).
+  // when the sequence has an IMU log and the settings place the IMU (IMU.T_b_c1); in a
+  // continued map (`load`), the keyframes this recording made.
   bool imu = true;
   // With the IMU, a bench's A/B on one map: the final BA first runs without it
   // (RunResult::ate_vision), then with gravity only (ate_gravity), then with gravity and the

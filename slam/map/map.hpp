@@ -76,6 +76,8 @@ struct MapBookkeeping {
 class Map {
  public:
   KeyframeId next_keyframe_id() { return keyframe_ids_.next(); }
+  // The id next_keyframe_id() will issue: every keyframe made from now on has it or a later one.
+  KeyframeId upcoming_keyframe_id() const { return KeyframeId(keyframe_ids_.peek()); }
   MapPointId next_point_id() { return point_ids_.next(); }
 
   // Inserts a keyframe (id from next_keyframe_id()); its frame.points must all exist (or be

@@ -77,13 +77,14 @@ std::pair<double, Eigen::Vector3d> gyro_fit(const optim::BundleProblem& problem,
   return {std::sqrt(sum / n), bias_sum / n};
 }
 
-// Consecutive keyframes in time (creation order is not time order in a continued map).
-void add_gyro(const map::Map& m, const std::vector<KeyframeId>& pose_ids,
+// Consecutive keyframes in time from `first` on (InertialMeasurements::first_keyframe).
+void add_gyro(const map::Map& m, const std::vector<KeyframeId>& pose_ids, KeyframeId first,
               const GyroMeasurements& gyro, optim::BundleProblem& problem) {
   problem.gyro_model = gyro.options().model;
   std::vector<std::pair<double, std::uint32_t>> by_time;
   for (std::size_t i = 0; i < pose_ids.size(); ++i)
-    by_time.emplace_back(m.keyframe(pose_ids[i])->frame.timestamp, static_cast<std::uint32_t>(i));
+    if (pose_ids[i] >= first)
+      by_time.emplace_back(m.keyframe(pose_ids[i])->frame.timestamp, static_cast<std::uint32_t>(i));
   std::sort(by_time.begin(), by_time.end());
   for (std::size_t i = 1; i < by_time.size(); ++i) {
     auto g = gyro.between(by_time[i - 1].first, by_time[i].first);
@@ -110,10 +111,11 @@ GlobalBaReport global_bundle_adjustment(map::SharedMap& shared, const GlobalBaOp
       all.push_back(id);
     std::sort(all.begin(), all.end());  // deterministic problem order
     w = make_window(m, all);
-    if (imu.gyro) add_gyro(m, w.pose_ids, *imu.gyro, w.problem);
+    if (imu.gyro) add_gyro(m, w.pose_ids, imu.first_keyframe, *imu.gyro, w.problem);
     if (imu.gravity) {
       w.problem.gravity_model = imu.gravity->options().model;
       for (std::size_t i = 0; i < w.pose_ids.size(); ++i) {
+        if (w.pose_ids[i] < imu.first_keyframe) continue;
         auto g = imu.gravity->at(m.keyframe(w.pose_ids[i])->frame.timestamp);
         if (!g) continue;
         g->pose = static_cast<std::uint32_t>(i);

@@ -42,6 +42,10 @@ struct GlobalBaReport {
 struct InertialMeasurements {
   const GravityMeasurements* gravity = nullptr;  // the keyframes' tilt
   const GyroMeasurements* gyro = nullptr;        // rotations between consecutive keyframes
+  // The log's recording made the keyframes from this id on (ids are issued in creation order).
+  // A continued map's loaded keyframes belong to another recording, whose clock this log must
+  // not be read at: they keep what vision ties them with, and the new ones carry the IMU.
+  KeyframeId first_keyframe{0};
 };
 
 // Takes the map lock to copy the problem out and to write the result back, not while solving.

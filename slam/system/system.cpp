@@ -138,7 +138,10 @@ mapdb::SaveReport System::save_map(const std::filesystem::path& path,
 mapping::GlobalBaReport System::optimize_map(const mapping::GlobalBaOptions& options,
                                              const mapping::InertialMeasurements& imu) {
   shutdown();
-  const mapping::GlobalBaReport report = mapping::global_bundle_adjustment(*shared_, options, imu);
+  mapping::InertialMeasurements this_recording = imu;
+  this_recording.first_keyframe = std::max(imu.first_keyframe, first_keyframe_);
+  mapping::GlobalBaReport report =
+      mapping::global_bundle_adjustment(*shared_, options, this_recording);
   spdlog::debug(
       "global BA: {} keyframes, {} points, {} observations ({} outliers removed), rms {:.3f} -> "
       "{:.3f} px, {} iterations, {:.0f} ms",
@@ -182,6 +185,7 @@ System::System(const settings::Settings& settings, const bow::Vocabulary& vocabu
     std::lock_guard lock(shared_->mutex);
     shared_->map = std::move(loaded.map);
     shared_->database = std::move(loaded.database);
+    first_keyframe_ = shared_->map.upcoming_keyframe_id();
   }
   frame_name_ = loaded.metadata.frame_name;
   frame_from_slam_ = loaded.metadata.frame_from_slam;

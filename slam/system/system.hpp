@@ -70,8 +70,9 @@ class System {
   void shutdown();
   // Global bundle adjustment of the finished map (shuts local mapping down first). For offline
   // mapping: the trajectory and the map then reflect all observations at once.
-  // `imu`: an IMU's measurements that tie the keyframes' tilt to gravity and their relative
-  // rotations to the gyro, or none.
+  // `imu`: this recording's IMU measurements, which tie the tilt of the keyframes this System
+  // made to gravity and their relative rotations to the gyro, or none. A continued map's loaded
+  // keyframes are of another recording and clock: vision alone holds them.
   mapping::GlobalBaReport optimize_map(const mapping::GlobalBaOptions& options = {},
                                        const mapping::InertialMeasurements& imu = {});
 
@@ -116,6 +117,8 @@ class System {
   std::unique_ptr<tracking::Tracker> tracker_;
   // The continued map's frame and registration (save_map keeps them); "slam" otherwise.
   std::string frame_name_ = "slam";
+  // The first keyframe this System made: a continued map's loaded ones come before it.
+  KeyframeId first_keyframe_{0};
   std::optional<Sim3> frame_from_slam_;
   bool running_ = true;  // mapping threads not yet shut down
   FrameObserver* observer_ = nullptr;

@@ -3,6 +3,7 @@
 // lower the reprojection error and leave a consistent map.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <opencv2/core.hpp>
 #include <random>
 
@@ -19,23 +20,34 @@ using synthetic::SyntheticFrame;
 using synthetic::SyntheticRgbdScene;
 using synthetic::SyntheticSceneOptions;
 
-TEST(GlobalBundleAdjustment, RecoversPerturbedPosesAndPoints) {
+// Six keyframes (one a second, t = 0..5 s) observing 300 points, exactly, but with the poses
+// (all but the first) and the points perturbed.
+struct PerturbedMap {
+  std::unique_ptr<map::SharedMap> shared = std::make_unique<map::SharedMap>();
+  std::vector<Eigen::Vector3d> world;
+  std::vector<SE3> truth;  // cam_from_world
+  std::vector<MapPointId> ids;
+  std::vector<KeyframeId> keyframes;
+};
+
+PerturbedMap perturbed_map() {
+  PerturbedMap out;
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> uni(-1.0, 1.0);
   const auto geometry = test_support::test_geometry();
-  std::vector<Eigen::Vector3d> world;
+  std::vector<Eigen::Vector3d>& world = out.world;
   for (int i = 0; i < 300; ++i)
     world.emplace_back(1.5 * uni(rng), 1.0 * uni(rng), 2.75 + 1.25 * uni(rng));
-  std::vector<SE3> truth;  // cam_from_world
+  std::vector<SE3>& truth = out.truth;
   for (int k = 0; k < 6; ++k) {
     truth.push_back(SE3::exp((Vector6d() << 0.06 * k, 0.02 * std::sin(k), 0.03 * k,
                               0.02 * std::cos(k), 0.04 * k, 0.01 * k)
                                  .finished()));
   }
-  map::SharedMap shared;
-  map::Map& m = shared.map;
-  std::vector<MapPointId> ids(world.size());
-  std::vector<KeyframeId> keyframes;
+  map::Map& m = out.shared->map;
+  std::vector<MapPointId>& ids = out.ids;
+  ids.resize(world.size());
+  std::vector<KeyframeId>& keyframes = out.keyframes;
   for (std::size_t k = 0; k < truth.size(); ++k) {
     features::OrbFeatures f;
     cv::Mat depth(480, 640, CV_32FC1, cv::Scalar(0.0f));
@@ -80,8 +92,13 @@ TEST(GlobalBundleAdjustment, RecoversPerturbedPosesAndPoints) {
   }
   for (const auto& [id, p] : m.points())
     m.update_point(id);
+  return out;
+}
 
-  const mapping::GlobalBaReport report = mapping::global_bundle_adjustment(shared);
+TEST(GlobalBundleAdjustment, RecoversPerturbedPosesAndPoints) {
+  const auto& [shared, world, truth, ids, keyframes] = perturbed_map();
+  const map::Map& m = shared->map;
+  const mapping::GlobalBaReport report = mapping::global_bundle_adjustment(*shared);
   EXPECT_EQ(report.keyframes, truth.size());
   EXPECT_EQ(report.outliers, 0u);
   EXPECT_GT(report.initial_rms_px, 5.0);
@@ -99,6 +116,41 @@ TEST(GlobalBundleAdjustment, RecoversPerturbedPosesAndPoints) {
     }
   }
   EXPECT_EQ(test_support::map_problem(m), "");
+}
+
+// A continued map: keyframes 0-2 came from an earlier recording, 3-5 from this one, whose IMU
+// log covers all six timestamps (another recording's clock may well overlap this one's). Only
+// 3-5 may take gravity, and the gyro only between 4 and 3, 5 and 4. The camera stands at each
+// keyframe's pose around its second: the accelerometer reads gravity, the gyro nothing.
+TEST(GlobalBundleAdjustment, TheImuTiesOnlyTheKeyframesOfItsRecording) {
+  const std::vector<SE3> truth = perturbed_map().truth;
+  const Eigen::Vector3d up_world(0.0, -1.0, 0.0);
+  Trajectory frames;
+  std::vector<ImuSample> imu;
+  for (int i = -200; i <= 1300; ++i) {
+    const double t = 0.005 * i;
+    const auto k = static_cast<std::size_t>(std::clamp(std::lround(t), 0L, 5L));
+    imu.push_back({t, Eigen::Vector3d::Zero(), truth[k].so3() * (9.81 * up_world)});
+    if (i % 10 == 0) frames.push_back({t, truth[k].inverse()});
+  }
+  mapping::GravityOptions gravity_options;
+  gravity_options.half_window = 0.3;  // within each keyframe's stand
+  const mapping::GravityMeasurements gravity(imu, SE3(), frames, gravity_options);
+  const mapping::GyroMeasurements gyro(imu, SE3());
+
+  const PerturbedMap all = perturbed_map();
+  const mapping::GlobalBaReport one_recording =
+      mapping::global_bundle_adjustment(*all.shared, {}, {.gravity = &gravity, .gyro = &gyro});
+  EXPECT_EQ(one_recording.gravity_keyframes, 6u);
+  EXPECT_EQ(one_recording.gyro_pairs, 5u);
+
+  const PerturbedMap continued = perturbed_map();
+  const mapping::GlobalBaReport second_recording = mapping::global_bundle_adjustment(
+      *continued.shared, {},
+      {.gravity = &gravity, .gyro = &gyro, .first_keyframe = continued.keyframes[3]});
+  EXPECT_EQ(second_recording.gravity_keyframes, 3u);
+  EXPECT_EQ(second_recording.gyro_pairs, 2u);
+  EXPECT_EQ(second_recording.keyframes, 6u);  // all of them still adjusted by vision
 }
 
 TEST(GlobalBundleAdjustment, KeepsASlamMapConsistentAndAccurate) {
