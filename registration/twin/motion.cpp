@@ -59,6 +59,12 @@ WalkTrajectory::WalkTrajectory(const std::vector<Eigen::Vector2d>& path, const W
   control_.insert(control_.end(), pts.begin(), pts.end());
   control_.insert(control_.end(), 2, pts.back());
   duration_ = static_cast<double>(control_.size() - 3) * knot_dt_;
+  // The spline leaves the start towards the first resampled point.
+  const auto leave = std::find_if(pts.begin(), pts.end(), [&](const Eigen::Vector2d& p) {
+    return (p - pts.front()).norm() > 1e-9;
+  });
+  if (leave != pts.end())
+    start_heading_ = std::atan2(leave->y() - pts.front().y(), leave->x() - pts.front().x());
   std::mt19937_64 rng(seed ^ 0x5eed5eedull);
   std::uniform_real_distribution<double> phase(0.0, 2.0 * M_PI);
   for (double& p : phase_)
@@ -81,7 +87,10 @@ SE3 WalkTrajectory::world_from_cam(double t) const {
   const double u = tau / knot_dt_;
   const Eigen::Vector2d xy = spline(u);
   const Eigen::Vector2d dir = spline(u + 0.7) - spline(u - 0.7);
-  const double heading = dir.norm() > 1e-9 ? std::atan2(dir.y(), dir.x()) : 0.0;
+  // At rest (the first 0.3 s, while both ends sit on the start's copies) the walker faces the
+  // way it will leave: a fixed heading there turned the head by 10 degrees in one frame when the
+  // walk set off, where the IMU saw nothing.
+  const double heading = dir.norm() > 1e-9 ? std::atan2(dir.y(), dir.x()) : start_heading_;
   const double w = 2.0 * M_PI / options_.look_period;
   const double a = options_.look_amplitude;
   const double yaw =

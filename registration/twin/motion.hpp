@@ -46,6 +46,7 @@ class WalkTrajectory {
   WalkOptions options_;
   double duration_ = 0.0;
   double knot_dt_ = 1.0;
+  double start_heading_ = 0.0;  // radians: the direction the walk sets off in
   std::array<double, 4> phase_{};
 };
 

@@ -38,11 +38,17 @@ double rms_reprojection(const optim::BundleProblem& problem, const optim::Intrin
   return n > 0 ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
 }
 
-// RMS length of the gravity residuals (m/s^2) at the problem's poses.
+std::size_t flagged(const std::vector<std::uint8_t>& flags) {
+  return static_cast<std::size_t>(std::count(flags.begin(), flags.end(), 1));
+}
+
+// RMS length of the gravity residuals (m/s^2) kept in the last pass, at the problem's poses.
 double rms_gravity(const optim::BundleProblem& problem, const optim::BundleResult& result) {
-  if (problem.gravity.empty()) return 0.0;
   double sum = 0.0;
-  for (const auto& g : problem.gravity) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < problem.gravity.size(); ++i) {
+    if (result.gravity_outlier[i]) continue;
+    const auto& g = problem.gravity[i];
     const optim::GravityCost cost(g.specific_force_cam, g.accel_world,
                                   problem.gravity_model.magnitude, 1.0);
     double pose[7];
@@ -51,17 +57,21 @@ double rms_gravity(const optim::BundleProblem& problem, const optim::BundleResul
     Eigen::Vector3d r;
     cost.Evaluate(params, r.data(), nullptr);
     sum += r.squaredNorm();
+    ++n;
   }
-  return std::sqrt(sum / static_cast<double>(problem.gravity.size()));
+  return n > 0 ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
 }
 
-// RMS angle (rad) of the gyro residuals at the problem's poses, and the mean bias.
+// RMS angle (rad) of the gyro residuals kept in the last pass, at the problem's poses, and the
+// mean bias.
 std::pair<double, Eigen::Vector3d> gyro_fit(const optim::BundleProblem& problem,
                                             const optim::BundleResult& result) {
-  if (problem.gyro.empty()) return {0.0, Eigen::Vector3d::Zero()};
   double sum = 0.0;
+  std::size_t n = 0;
   Eigen::Vector3d bias_sum = Eigen::Vector3d::Zero();
-  for (const auto& g : problem.gyro) {
+  for (std::size_t i = 0; i < problem.gyro.size(); ++i) {
+    if (result.gyro_outlier[i]) continue;
+    const auto& g = problem.gyro[i];
     const optim::GyroCost cost(g.cam_a_from_cam_b, g.bias_jacobian, 1.0);
     double a[7], b[7];
     optim::pose_to_array(problem.poses[g.pose_a].cam_from_world, a);
@@ -72,9 +82,11 @@ std::pair<double, Eigen::Vector3d> gyro_fit(const optim::BundleProblem& problem,
     cost.Evaluate(params, r.data(), nullptr);
     sum += r.squaredNorm();
     bias_sum += bias;
+    ++n;
   }
-  const double n = static_cast<double>(problem.gyro.size());
-  return {std::sqrt(sum / n), bias_sum / n};
+  if (n == 0) return {0.0, Eigen::Vector3d::Zero()};
+  const double count = static_cast<double>(n);
+  return {std::sqrt(sum / count), bias_sum / count};
 }
 
 // Consecutive keyframes in time from `first` on (InertialMeasurements::first_keyframe).
@@ -136,13 +148,14 @@ GlobalBaReport global_bundle_adjustment(map::SharedMap& shared, const GlobalBaOp
   report.keyframes = w.pose_ids.size();
   report.points = w.point_ids.size();
   report.observations = w.problem.observations.size();
-  report.outliers =
-      static_cast<std::size_t>(std::count(result.outlier.begin(), result.outlier.end(), 1));
+  report.outliers = flagged(result.outlier);
   report.iterations = result.iterations;
   report.gravity_keyframes = w.problem.gravity.size();
+  report.gravity_outliers = flagged(result.gravity_outlier);
   report.accel_bias = result.accel_bias;
   report.gravity_rms = rms_gravity(w.problem, result);
   report.gyro_pairs = w.problem.gyro.size();
+  report.gyro_outliers = flagged(result.gyro_outlier);
   std::tie(report.gyro_rms, report.gyro_bias) = gyro_fit(w.problem, result);
   return report;
 }

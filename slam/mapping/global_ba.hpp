@@ -25,15 +25,16 @@ struct GlobalBaReport {
   // over the observations kept, before and after.
   double initial_rms_px = 0.0, final_rms_px = 0.0;
   double ms = 0.0;
-  // With gravity: keyframes that had a measurement, the accelerometer bias estimated (camera
-  // frame, m/s^2) and the RMS of the gravity residuals after (m/s^2).
-  std::size_t gravity_keyframes = 0;
+  // With gravity: keyframes that had a measurement (of which gravity_outliers were dropped
+  // after the first pass: optim::BundleOptions::chi2_inertial), the accelerometer bias
+  // estimated (camera frame, m/s^2) and the RMS of the kept gravity residuals after (m/s^2).
+  std::size_t gravity_keyframes = 0, gravity_outliers = 0;
   Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
   double gravity_rms = 0.0;
-  // With the gyro: pairs of consecutive keyframes tied, the RMS angle between the gyro's
-  // rotation (bias applied) and the map's after (rad), and the mean gyro bias (camera frame,
-  // rad/s).
-  std::size_t gyro_pairs = 0;
+  // With the gyro: pairs of consecutive keyframes tied (gyro_outliers of them dropped), the RMS
+  // angle between the gyro's rotation (bias applied) and the map's after over the kept pairs
+  // (rad), and their mean gyro bias (camera frame, rad/s).
+  std::size_t gyro_pairs = 0, gyro_outliers = 0;
   double gyro_rms = 0.0;
   Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();
 };

@@ -21,6 +21,7 @@ void BundleOptions::check() const {
   if (iterations_robust < 0 || iterations_refine < 0) throw Error("BundleOptions.iterations_* < 0");
   if (!(chi2_stereo > 0.0)) throw Error("BundleOptions.chi2_stereo must be > 0");
   if (!(chi2_mono > 0.0)) throw Error("BundleOptions.chi2_mono must be > 0");
+  if (!(chi2_inertial > 0.0)) throw Error("BundleOptions.chi2_inertial must be > 0");
 }
 
 void pose_to_array(const SE3& pose, double* x) {
@@ -179,12 +180,16 @@ struct Extras {
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
   Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector3d> gyro_bias;  // per pose
+  // Per problem.gravity / problem.gyro entry: left out of the second pass.
+  std::vector<std::uint8_t> gravity_outlier, gyro_outlier;
 };
 
 void add_gravity(const BundleProblem& problem, std::vector<double>& pose_params, Extras& x,
                  bool robust, ceres::Manifold* sphere, ceres::Problem& ceres_problem) {
   const BundleProblem::GravityModel& m = problem.gravity_model;
-  for (const BundleProblem::Gravity& g : problem.gravity) {
+  for (std::size_t i = 0; i < problem.gravity.size(); ++i) {
+    if (x.gravity_outlier[i]) continue;
+    const BundleProblem::Gravity& g = problem.gravity[i];
     double* pose = &pose_params[std::size_t{7} * g.pose];
     // A pose without an observation in this solve is not a parameter block yet.
     if (!ceres_problem.HasParameterBlock(pose)) continue;
@@ -205,7 +210,8 @@ void add_gyro(const BundleProblem& problem, std::vector<double>& pose_params, Ex
               bool robust, ceres::Problem& ceres_problem) {
   const BundleProblem::GyroModel& m = problem.gyro_model;
   double* first_bias = nullptr;
-  for (const BundleProblem::Gyro& g : problem.gyro) {
+  for (std::size_t i = 0; i < problem.gyro.size(); ++i) {
+    const BundleProblem::Gyro& g = problem.gyro[i];
     double* a = &pose_params[std::size_t{7} * g.pose_a];
     double* b = &pose_params[std::size_t{7} * g.pose_b];
     // Poses without an observation in this solve are not parameter blocks: no gauge to hold.
@@ -213,9 +219,10 @@ void add_gyro(const BundleProblem& problem, std::vector<double>& pose_params, Ex
     double* bias_a = x.gyro_bias[g.pose_a].data();
     double* bias_b = x.gyro_bias[g.pose_b].data();
     const double sigma = m.noise_density * std::sqrt(g.dt);
-    // A saturated or knocked gyro must not bend the map.
-    ceres_problem.AddResidualBlock(new GyroCost(g.cam_a_from_cam_b, g.bias_jacobian, sigma),
-                                   robust ? new ceres::HuberLoss(3.0) : nullptr, a, b, bias_a);
+    // A saturated or knocked gyro must not bend the map (the bias still walks across it).
+    if (!x.gyro_outlier[i])
+      ceres_problem.AddResidualBlock(new GyroCost(g.cam_a_from_cam_b, g.bias_jacobian, sigma),
+                                     robust ? new ceres::HuberLoss(3.0) : nullptr, a, b, bias_a);
     const double walk = m.random_walk * std::sqrt(g.dt);
     ceres_problem.AddResidualBlock(new GyroBiasWalkCost(walk), nullptr, bias_a, bias_b);
     if (!first_bias) first_bias = bias_a;
@@ -321,6 +328,41 @@ void flag_outliers(const BundleProblem& problem, const std::vector<double>& pose
   }
 }
 
+// Flags (never unflags) the gravity windows and gyro pairs beyond chi2_inertial at the current
+// estimate (whitened as in the solve). Returns whether it flagged any.
+bool flag_inertial_outliers(const BundleProblem& problem, const std::vector<double>& pose_params,
+                            const BundleOptions& options, Extras& x) {
+  bool flagged = false;
+  for (std::size_t i = 0; i < problem.gravity.size(); ++i) {
+    const BundleProblem::Gravity& g = problem.gravity[i];
+    const GravityCost cost(g.specific_force_cam, g.accel_world, problem.gravity_model.magnitude,
+                           problem.gravity_model.sigma);
+    const double* params[3] = {&pose_params[std::size_t{7} * g.pose], x.up.data(),
+                               x.accel_bias.data()};
+    Eigen::Vector3d r;
+    if (!x.gravity_outlier[i] &&
+        (!cost.Evaluate(params, r.data(), nullptr) || r.squaredNorm() > options.chi2_inertial)) {
+      x.gravity_outlier[i] = 1;
+      flagged = true;
+    }
+  }
+  for (std::size_t i = 0; i < problem.gyro.size(); ++i) {
+    const BundleProblem::Gyro& g = problem.gyro[i];
+    const GyroCost cost(g.cam_a_from_cam_b, g.bias_jacobian,
+                        problem.gyro_model.noise_density * std::sqrt(g.dt));
+    const double* params[3] = {&pose_params[std::size_t{7} * g.pose_a],
+                               &pose_params[std::size_t{7} * g.pose_b],
+                               x.gyro_bias[g.pose_a].data()};
+    Eigen::Vector3d r;
+    if (!x.gyro_outlier[i] &&
+        (!cost.Evaluate(params, r.data(), nullptr) || r.squaredNorm() > options.chi2_inertial)) {
+      x.gyro_outlier[i] = 1;
+      flagged = true;
+    }
+  }
+  return flagged;
+}
+
 }  // namespace
 
 BundleResult bundle_adjust(BundleProblem& problem, const Intrinsics& k,
@@ -334,6 +376,8 @@ BundleResult bundle_adjust(BundleProblem& problem, const Intrinsics& k,
 
   Extras x;
   if (!problem.gyro.empty()) x.gyro_bias.assign(problem.poses.size(), Eigen::Vector3d::Zero());
+  x.gravity_outlier.assign(problem.gravity.size(), 0);
+  x.gyro_outlier.assign(problem.gyro.size(), 0);
   if (!problem.gravity.empty()) {
     // Up starts as the mean of what each keyframe's measurement says it is.
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -344,6 +388,12 @@ BundleResult bundle_adjust(BundleProblem& problem, const Intrinsics& k,
   }
   result.iterations += solve(problem, pose_params, x, k, options, result.outlier, true,
                              options.iterations_robust, abort, result);
+  // Even under its kernel a gyro pair far off pulls the poses it joins apart, and the frames'
+  // observations across that link would then look like outliers: without such pairs, the
+  // robust pass runs again before the observations are judged.
+  if (flag_inertial_outliers(problem, pose_params, options, x) && !(abort && abort->load()))
+    result.iterations += solve(problem, pose_params, x, k, options, result.outlier, true,
+                               options.iterations_robust, abort, result);
   flag_outliers(problem, pose_params, x.delta, k, options, result.outlier);
   if (!(abort && abort->load()) && options.iterations_refine > 0) {
     result.iterations += solve(problem, pose_params, x, k, options, result.outlier, false,
@@ -358,6 +408,8 @@ BundleResult bundle_adjust(BundleProblem& problem, const Intrinsics& k,
     result.accel_bias = x.accel_bias;
   }
   result.gyro_bias = std::move(x.gyro_bias);
+  result.gravity_outlier = std::move(x.gravity_outlier);
+  result.gyro_outlier = std::move(x.gyro_outlier);
   result.aborted = abort && abort->load();
   for (std::size_t i = 0; i < problem.poses.size(); ++i) {
     problem.poses[i].cam_from_world = pose_from_array(&pose_params[7 * i]);

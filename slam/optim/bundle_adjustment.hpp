@@ -91,6 +91,11 @@ struct BundleOptions {
   int iterations_refine = 10;  // second pass, outliers removed, no kernel
   double chi2_stereo = 7.815;
   double chi2_mono = 5.991;
+  // A gravity window or gyro pair whose whitened residual exceeds this (3 dof, 99.9 %) after
+  // the first pass is dropped from the second, as observations are: the second pass has no
+  // kernel, and one pair the frames and the gyro disagree on (a knock, a time glitch, a head
+  // that snapped between two frames) would otherwise bend the map by its full weight.
+  double chi2_inertial = 16.27;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
 };
@@ -108,6 +113,8 @@ struct BundleResult {
   // With BundleProblem::gyro: the gyro bias (camera frame, rad/s) per pose, zero for poses
   // without a Gyro; empty without.
   std::vector<Eigen::Vector3d> gyro_bias;
+  // Per BundleProblem::gravity / gyro entry: dropped after the first pass (chi2_inertial).
+  std::vector<std::uint8_t> gravity_outlier, gyro_outlier;
 };
 
 // Optimizes `problem` in place. `abort` (may be null) is polled between iterations.

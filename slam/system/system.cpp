@@ -149,16 +149,16 @@ mapping::GlobalBaReport System::optimize_map(const mapping::GlobalBaOptions& opt
       report.final_rms_px, report.iterations, report.ms);
   if (report.gravity_keyframes > 0)
     spdlog::info(
-        "global BA: gravity from {} keyframes, residual rms {:.3f} m/s^2, accelerometer bias "
-        "({:.3f}, {:.3f}, {:.3f}) m/s^2 (camera frame)",
-        report.gravity_keyframes, report.gravity_rms, report.accel_bias.x(), report.accel_bias.y(),
-        report.accel_bias.z());
+        "global BA: gravity from {} keyframes ({} dropped), residual rms {:.3f} m/s^2, "
+        "accelerometer bias ({:.3f}, {:.3f}, {:.3f}) m/s^2 (camera frame)",
+        report.gravity_keyframes, report.gravity_outliers, report.gravity_rms,
+        report.accel_bias.x(), report.accel_bias.y(), report.accel_bias.z());
   if (report.gyro_pairs > 0)
     spdlog::info(
-        "global BA: gyro between {} keyframe pairs, residual rms {:.3f} mrad, mean gyro bias "
-        "({:.4f}, {:.4f}, {:.4f}) rad/s (camera frame)",
-        report.gyro_pairs, 1e3 * report.gyro_rms, report.gyro_bias.x(), report.gyro_bias.y(),
-        report.gyro_bias.z());
+        "global BA: gyro between {} keyframe pairs ({} dropped), residual rms {:.3f} mrad, mean "
+        "gyro bias ({:.4f}, {:.4f}, {:.4f}) rad/s (camera frame)",
+        report.gyro_pairs, report.gyro_outliers, 1e3 * report.gyro_rms, report.gyro_bias.x(),
+        report.gyro_bias.y(), report.gyro_bias.z());
   return report;
 }
 
