@@ -37,6 +37,11 @@ slam::mapping::GyroOptions gyro_options(const settings::Settings& settings) {
 
 }  // namespace
 
+const char* pacing_name(const RunOptions& run) {
+  if (run.realtime) return run.sequential ? "paced, sequential" : "paced";
+  return run.concurrent ? "concurrent" : "sequential";
+}
+
 RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& settings,
                    const slam::bow::Vocabulary& vocabulary, const RunOptions& run,
                    const std::function<void(const slam::system::System&)>& finished) {
@@ -44,6 +49,7 @@ RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& 
   if (run.realtime) frames = dataset::paced(std::move(frames));
   RunOptions options = run;
   options.source_waits = !run.realtime;
+  if (options.source_waits && !run.concurrent) options.sequential = true;
   return run_slam(*frames, &sequence, settings, vocabulary, options, finished);
 }
 

@@ -18,12 +18,20 @@
 
 namespace coloc::cli {
 
+// How a recording's frames meet tracking and mapping. By default back to back, with tracking
+// waiting for local mapping after each keyframe (`sequential`, which the sequence overload of
+// run_slam sets): a recording can wait, so which frames become keyframes does not depend on how
+// busy the mapper happens to be, and every run gives the same map. `realtime` delivers them at
+// their timestamps as a live camera does, and `concurrent` back to back without waiting
+// (tracking runs about four times real time and the mapper's load decides the keyframes).
 struct RunOptions {
   bool sequential = false;  // tracking waits for local mapping after each keyframe
   bool realtime = false;    // a sequence's frames arrive at their timestamps (dataset::paced)
-  // The frame source can wait (recorded frames, unpaced): tracking then lets local mapping
-  // settle an unknown rolling-shutter readout first (TrackingOptions::readout_settle_keyframes).
-  // Set by the sequence overload of run_slam; a live camera cannot wait.
+  bool concurrent = false;  // a sequence's frames back to back, tracking never waiting
+  // The frame source can wait (recorded frames, unpaced): in concurrent runs, tracking then lets
+  // local mapping settle an unknown rolling-shutter readout first
+  // (TrackingOptions::readout_settle_keyframes). Set by the sequence overload of run_slam; a
+  // live camera cannot wait.
   bool source_waits = false;
   bool global_ba = true;  // of the finished map
   bool loop = true;       // loop closing
@@ -56,6 +64,10 @@ struct RunResult {
   std::optional<eval::AteResult> ate_vision, ate_gravity;
   std::size_t skipped_frames = 0;  // unreadable images (named in the log)
 };
+
+// How the sequence overload of run_slam delivers a recording's frames: "sequential",
+// "concurrent" or "paced" (realtime; "paced, sequential" with both).
+const char* pacing_name(const RunOptions& run);
 
 // `finished` (optional) sees the System once the run and its global BA are done (to save it).
 RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& settings,

@@ -331,8 +331,7 @@ void run_localize(const LocalizeArgs& args) {
       r = localizer.localize(image, frame.depth, time);
     } catch (const Error& e) {
       // A frame that does not fit the camera is skipped and named, as unreadable ones are.
-      spdlog::warn("frame {} skipped ({}): {}", frame.index, frame.color_path.string(),
-                   e.what());
+      spdlog::warn("frame {} skipped ({}): {}", frame.index, frame.color_path.string(), e.what());
       return;
     }
     if (view)

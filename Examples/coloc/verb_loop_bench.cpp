@@ -28,7 +28,7 @@ struct LoopBenchArgs {
   std::vector<fs::path> sequences;
   fs::path config, vocabulary;
   int runs = 3;
-  bool sequential = false;
+  bool concurrent = false;
   bool json = false;
 };
 
@@ -96,7 +96,7 @@ void run_loop_bench(const LoopBenchArgs& args) {
     for (int run = 0; run < args.runs; ++run) {
       for (const bool loop : {true, false}) {
         const RunResult r = run_slam(*in.sequence, in.settings, vocabulary,
-                                     {.sequential = args.sequential, .loop = loop});
+                                     {.concurrent = args.concurrent, .loop = loop});
         add_run(loop ? on : off, r, in.sequence->ground_truth());
         if (!args.json)
           std::fprintf(stderr, "%s run %d loop %s: ATE %.2f mm, loops %zu\n",
@@ -109,8 +109,8 @@ void run_loop_bench(const LoopBenchArgs& args) {
           {{"sequence", dir.string()}, {"loop_on", mode_json(on)}, {"loop_off", mode_json(off)}});
       continue;
     }
-    std::printf("%s (%zu frames, %d runs each, %s mapping)\n", dir.string().c_str(),
-                in.sequence->size(), args.runs, args.sequential ? "sequential" : "concurrent");
+    std::printf("%s (%zu frames, %d runs each, %s)\n", dir.string().c_str(), in.sequence->size(),
+                args.runs, pacing_name({.concurrent = args.concurrent}));
     print_mode("on", on);
     print_mode("off", off);
   }
@@ -141,7 +141,8 @@ void add_loop_bench_verb(CLI::App& bench) {
   loop->add_option("--vocabulary", args->vocabulary, "BoW vocabulary");
   loop->add_option("--runs", args->runs, "Runs with and without loop closing")
       ->check(CLI::Range(1, 100));
-  loop->add_flag("--sequential", args->sequential, "Tracking waits for local mapping");
+  loop->add_flag("--concurrent", args->concurrent,
+                 "Tracking never waits for local mapping (by default it does after each keyframe)");
   loop->add_flag("--json", args->json, "Machine-readable results");
   loop->callback([args] { run_loop_bench(*args); });
 }

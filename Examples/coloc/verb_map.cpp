@@ -48,6 +48,7 @@ struct MapArgs {
   double seconds = 0.0;
   bool sequential = false;
   bool realtime = false;
+  bool concurrent = false;
   bool no_global_ba = false;
   bool no_loop = false;
   bool no_imu = false;
@@ -193,6 +194,7 @@ void run_map(const MapArgs& given) {
   if (server) live = std::make_unique<LiveSystemView>(*server, args.view, args.sequence);
   RunOptions run{.sequential = args.sequential,
                  .realtime = args.realtime,
+                 .concurrent = args.concurrent,
                  .global_ba = !args.no_global_ba,
                  .loop = !args.no_loop,
                  .imu = !args.no_imu,
@@ -226,10 +228,10 @@ void run_bench(const MapArgs& args) {
   const MapInputs in = load_inputs(args);
   const auto& [config, settings, sequence] = in.slam;
   const auto& vocabulary = in.vocabulary;
-  std::printf("sequence %s (%zu frames), settings %s, %s mapping, %s\n",
-              args.sequence.string().c_str(), sequence->size(), config.string().c_str(),
-              args.sequential ? "sequential" : "concurrent",
-              args.realtime ? "frames paced at their timestamps" : "frames as fast as tracked");
+  const RunOptions mode{
+      .sequential = args.sequential, .realtime = args.realtime, .concurrent = args.concurrent};
+  std::printf("sequence %s (%zu frames), settings %s, %s\n", args.sequence.string().c_str(),
+              sequence->size(), config.string().c_str(), pacing_name(mode));
   std::printf("%4s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %7s %5s %4s %8s %8s %5s %8s %8s\n",
               "run", "extr_med", "extr_p99", "pose_med", "pose_p99", "lmap_med", "lmap_p99",
               "kf_med", "kf_p99", "total_med", "total_p99", "ba_med", "lost", "kfs", "ate_mm",
@@ -239,6 +241,7 @@ void run_bench(const MapArgs& args) {
     const RunResult r = run_slam(*sequence, settings, vocabulary,
                                  {.sequential = args.sequential,
                                   .realtime = args.realtime,
+                                  .concurrent = args.concurrent,
                                   .loop = !args.no_loop,
                                   .imu = !args.no_imu,
                                   .compare_imu = true});
@@ -310,10 +313,14 @@ void add_map_verb(CLI::App& app, CLI::App& bench) {
                   "Only frames FIRST:LAST of the sequence (0-based, LAST excluded; either may be "
                   "empty)");
   map->add_flag("--sequential", args->sequential,
-                "Tracking waits for local mapping after each keyframe");
-  map->add_flag("--realtime", args->realtime,
-                "Frames arrive at their timestamps, as from a live camera (none dropped; "
-                "tracking falls behind when slower)");
+                "Tracking waits for local mapping after each keyframe (a recording's default)");
+  CLI::Option* realtime = map->add_flag(
+      "--realtime", args->realtime,
+      "Frames arrive at their timestamps, as from a live camera (none dropped; tracking falls "
+      "behind when slower)");
+  map->add_flag("--concurrent", args->concurrent,
+                "A recording's frames back to back, tracking never waiting for the mapper")
+      ->excludes(realtime);
   map->add_flag("--no-global-ba", args->no_global_ba,
                 "Skip the global bundle adjustment of the finished map");
   map->add_flag("--no-loop", args->no_loop, "No loop closing");
@@ -331,8 +338,14 @@ void add_map_verb(CLI::App& app, CLI::App& bench) {
   track->add_option("--config", args->config, "Camera settings YAML");
   track->add_option("--vocabulary", args->vocabulary, "BoW vocabulary");
   track->add_option("--runs", args->runs, "Runs (spread between runs)")->check(CLI::Range(1, 100));
-  track->add_flag("--sequential", args->sequential, "Tracking waits for local mapping");
-  track->add_flag("--realtime", args->realtime, "Frames arrive at their timestamps");
+  track->add_flag("--sequential", args->sequential,
+                  "Tracking waits for local mapping (a recording's default)");
+  CLI::Option* track_realtime =
+      track->add_flag("--realtime", args->realtime, "Frames arrive at their timestamps");
+  track
+      ->add_flag("--concurrent", args->concurrent,
+                 "Frames back to back, tracking never waiting for the mapper")
+      ->excludes(track_realtime);
   track->add_flag("--no-loop", args->no_loop, "No loop closing");
   track->add_flag("--no-imu", args->no_imu,
                   "The global BA ignores the sequence's IMU log (see IMU.T_b_c1)");

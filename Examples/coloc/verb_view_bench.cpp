@@ -42,7 +42,7 @@ struct ModeResult {
 
 ModeResult run_mode(const ViewBenchArgs& a, const SlamInputs& in,
                     const slam::bow::Vocabulary& vocabulary, Mode mode) {
-  RunOptions run{.sequential = a.sequential};
+  RunOptions run{.sequential = a.sequential, .concurrent = !a.sequential};
   ModeResult out;
   std::unique_ptr<slam::view::ViewServer> server;
   std::unique_ptr<LiveSystemView> live;
