@@ -265,8 +265,8 @@ void run_bench(const MapArgs& args) {
   std::printf(
       "ms per frame in the tracking thread: extraction (extr), initial pose (pose), local map "
       "(lmap),\n"
-      "keyframe decision + creation (kf), total (all stages + locking); ba_med: local BA ms per "
-      "keyframe;\n"
+      "keyframe decision + creation (kf), total (all stages + locking, not the sequential runs'\n"
+      "waits for the mapper); ba_med: local BA ms per keyframe;\n"
       "ate_mm: ATE RMSE of the trajectory as tracked, gba_mm: after the final global BA;\n"
       "vis_mm, grav_mm: when the sequence has an IMU log and the settings IMU.T_b_c1, the same\n"
       "map's global BA without the IMU, then with gravity only; gba_mm is then the BA with "

@@ -139,8 +139,11 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
     sink_->push({reference_, grey.clone()});
     ++keyframes_made_;
     if (options_.wait_for_sink ||
-        (shared_.estimate_readout && keyframes_made_ <= options_.readout_settle_keyframes))
+        (shared_.estimate_readout && keyframes_made_ <= options_.readout_settle_keyframes)) {
+      const Stopwatch wait;
       sink_->wait_idle();
+      result.wait_ms = wait.elapsed_ms();
+    }
   }
   result.keyframe = result.keyframe || make_keyframe;
   result.state = state_;
@@ -152,7 +155,7 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
   } else {
     last_ = frame::Frame();
   }
-  result.track_ms = watch.elapsed_ms();
+  result.track_ms = watch.elapsed_ms() - result.wait_ms;
   spdlog::debug("tracking: frame {} state {} inliers {} keyframe {}", current_.id.value(),
                 to_string(state_), matches_inliers_, result.keyframe);
   return result;

@@ -124,6 +124,9 @@ struct TrackingResult {
   // Stages of track_ms: initial pose (motion model / reference keyframe / relocalization),
   // local-map tracking, keyframe decision and creation.
   double pose_ms = 0.0, local_map_ms = 0.0, keyframe_ms = 0.0;
+  // Waiting for the keyframe sink after a keyframe (wait_for_sink, readout_settle_keyframes):
+  // the source's choice to let mapping catch up, not tracking's work, so not in track_ms.
+  double wait_ms = 0.0;
 };
 
 // A frame's pose relative to its reference keyframe (ORB-SLAM's trajectory bookkeeping: the
