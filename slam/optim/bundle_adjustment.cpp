@@ -334,19 +334,20 @@ bool flag_inertial_outliers(const BundleProblem& problem, const std::vector<doub
                             const BundleOptions& options, Extras& x) {
   bool flagged = false;
   for (std::size_t i = 0; i < problem.gravity.size(); ++i) {
+    if (x.gravity_outlier[i]) continue;
     const BundleProblem::Gravity& g = problem.gravity[i];
     const GravityCost cost(g.specific_force_cam, g.accel_world, problem.gravity_model.magnitude,
                            problem.gravity_model.sigma);
     const double* params[3] = {&pose_params[std::size_t{7} * g.pose], x.up.data(),
                                x.accel_bias.data()};
     Eigen::Vector3d r;
-    if (!x.gravity_outlier[i] &&
-        (!cost.Evaluate(params, r.data(), nullptr) || r.squaredNorm() > options.chi2_inertial)) {
-      x.gravity_outlier[i] = 1;
-      flagged = true;
-    }
+    if (cost.Evaluate(params, r.data(), nullptr) && r.squaredNorm() <= options.chi2_inertial)
+      continue;
+    x.gravity_outlier[i] = 1;
+    flagged = true;
   }
   for (std::size_t i = 0; i < problem.gyro.size(); ++i) {
+    if (x.gyro_outlier[i]) continue;
     const BundleProblem::Gyro& g = problem.gyro[i];
     const GyroCost cost(g.cam_a_from_cam_b, g.bias_jacobian,
                         problem.gyro_model.noise_density * std::sqrt(g.dt));
@@ -354,11 +355,10 @@ bool flag_inertial_outliers(const BundleProblem& problem, const std::vector<doub
                                &pose_params[std::size_t{7} * g.pose_b],
                                x.gyro_bias[g.pose_a].data()};
     Eigen::Vector3d r;
-    if (!x.gyro_outlier[i] &&
-        (!cost.Evaluate(params, r.data(), nullptr) || r.squaredNorm() > options.chi2_inertial)) {
-      x.gyro_outlier[i] = 1;
-      flagged = true;
-    }
+    if (cost.Evaluate(params, r.data(), nullptr) && r.squaredNorm() <= options.chi2_inertial)
+      continue;
+    x.gyro_outlier[i] = 1;
+    flagged = true;
   }
   return flagged;
 }
