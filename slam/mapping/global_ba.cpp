@@ -2,13 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <tuple>
 #include <utility>
 
 #include "slam/core/timing.hpp"
 #include "slam/mapping/ba_window.hpp"
-#include "slam/optim/gravity_cost.hpp"
-#include "slam/optim/gyro_cost.hpp"
 
 namespace coloc::slam::mapping {
 
@@ -42,51 +39,17 @@ std::size_t flagged(const std::vector<std::uint8_t>& flags) {
   return static_cast<std::size_t>(std::count(flags.begin(), flags.end(), 1));
 }
 
-// RMS length of the gravity residuals (m/s^2) kept in the last pass, at the problem's poses.
-double rms_gravity(const optim::BundleProblem& problem, const optim::BundleResult& result) {
-  double sum = 0.0;
+// The mean gyro bias over the pairs kept in the last pass (camera frame, rad/s).
+Eigen::Vector3d mean_gyro_bias(const optim::BundleProblem& problem,
+                               const optim::BundleResult& result) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   std::size_t n = 0;
-  for (std::size_t i = 0; i < problem.gravity.size(); ++i) {
-    if (result.gravity_outlier[i]) continue;
-    const auto& g = problem.gravity[i];
-    const optim::GravityCost cost(g.specific_force_cam, g.accel_world,
-                                  problem.gravity_model.magnitude, 1.0);
-    double pose[7];
-    optim::pose_to_array(problem.poses[g.pose].cam_from_world, pose);
-    const double* params[3] = {pose, result.up_world.data(), result.accel_bias.data()};
-    Eigen::Vector3d r;
-    cost.Evaluate(params, r.data(), nullptr);
-    sum += r.squaredNorm();
-    ++n;
-  }
-  return n > 0 ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
-}
-
-// RMS angle (rad) of the gyro residuals kept in the last pass, at the problem's poses, and the
-// mean bias.
-std::pair<double, Eigen::Vector3d> gyro_fit(const optim::BundleProblem& problem,
-                                            const optim::BundleResult& result) {
-  double sum = 0.0;
-  std::size_t n = 0;
-  Eigen::Vector3d bias_sum = Eigen::Vector3d::Zero();
   for (std::size_t i = 0; i < problem.gyro.size(); ++i) {
     if (result.gyro_outlier[i]) continue;
-    const auto& g = problem.gyro[i];
-    const optim::GyroCost cost(g.cam_a_from_cam_b, g.bias_jacobian, 1.0);
-    double a[7], b[7];
-    optim::pose_to_array(problem.poses[g.pose_a].cam_from_world, a);
-    optim::pose_to_array(problem.poses[g.pose_b].cam_from_world, b);
-    const Eigen::Vector3d& bias = result.gyro_bias[g.pose_a];
-    const double* params[3] = {a, b, bias.data()};
-    Eigen::Vector3d r;
-    cost.Evaluate(params, r.data(), nullptr);
-    sum += r.squaredNorm();
-    bias_sum += bias;
+    sum += result.gyro_bias[problem.gyro[i].pose_a];
     ++n;
   }
-  if (n == 0) return {0.0, Eigen::Vector3d::Zero()};
-  const double count = static_cast<double>(n);
-  return {std::sqrt(sum / count), bias_sum / count};
+  return n > 0 ? Eigen::Vector3d(sum / static_cast<double>(n)) : Eigen::Vector3d::Zero();
 }
 
 // Consecutive keyframes in time from `first` on (InertialMeasurements::first_keyframe).
@@ -153,10 +116,11 @@ GlobalBaReport global_bundle_adjustment(map::SharedMap& shared, const GlobalBaOp
   report.gravity_keyframes = w.problem.gravity.size();
   report.gravity_outliers = flagged(result.gravity_outlier);
   report.accel_bias = result.accel_bias;
-  report.gravity_rms = rms_gravity(w.problem, result);
+  report.gravity_rms = result.gravity_rms;
   report.gyro_pairs = w.problem.gyro.size();
   report.gyro_outliers = flagged(result.gyro_outlier);
-  std::tie(report.gyro_rms, report.gyro_bias) = gyro_fit(w.problem, result);
+  report.gyro_rms = result.gyro_rms;
+  report.gyro_bias = mean_gyro_bias(w.problem, result);
   return report;
 }
 

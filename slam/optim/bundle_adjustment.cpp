@@ -328,39 +328,61 @@ void flag_outliers(const BundleProblem& problem, const std::vector<double>& pose
   }
 }
 
-// Flags (never unflags) the gravity windows and gyro pairs beyond chi2_inertial at the current
-// estimate (whitened as in the solve). Returns whether it flagged any.
+// One gravity window's residual (m/s^2) and one gyro pair's (rad) at the current estimate, not
+// whitened; NaN where the cost cannot be evaluated.
+Eigen::Vector3d gravity_residual(const BundleProblem& problem, const BundleProblem::Gravity& g,
+                                 const std::vector<double>& pose_params, const Extras& x) {
+  const GravityCost cost(g.specific_force_cam, g.accel_world, problem.gravity_model.magnitude, 1.0);
+  const double* params[3] = {&pose_params[std::size_t{7} * g.pose], x.up.data(),
+                             x.accel_bias.data()};
+  Eigen::Vector3d r;
+  if (!cost.Evaluate(params, r.data(), nullptr)) r.setConstant(std::nan(""));
+  return r;
+}
+
+Eigen::Vector3d gyro_residual(const BundleProblem::Gyro& g, const std::vector<double>& pose_params,
+                              const Extras& x) {
+  const GyroCost cost(g.cam_a_from_cam_b, g.bias_jacobian, 1.0);
+  const double* params[3] = {&pose_params[std::size_t{7} * g.pose_a],
+                             &pose_params[std::size_t{7} * g.pose_b], x.gyro_bias[g.pose_a].data()};
+  Eigen::Vector3d r;
+  if (!cost.Evaluate(params, r.data(), nullptr)) r.setConstant(std::nan(""));
+  return r;
+}
+
+// Flags (never unflags) the gravity windows and gyro pairs whose whitened residual exceeds
+// chi2_inertial at the current estimate (or cannot be evaluated). Returns whether it flagged any.
 bool flag_inertial_outliers(const BundleProblem& problem, const std::vector<double>& pose_params,
                             const BundleOptions& options, Extras& x) {
   bool flagged = false;
-  for (std::size_t i = 0; i < problem.gravity.size(); ++i) {
-    if (x.gravity_outlier[i]) continue;
-    const BundleProblem::Gravity& g = problem.gravity[i];
-    const GravityCost cost(g.specific_force_cam, g.accel_world, problem.gravity_model.magnitude,
-                           problem.gravity_model.sigma);
-    const double* params[3] = {&pose_params[std::size_t{7} * g.pose], x.up.data(),
-                               x.accel_bias.data()};
-    Eigen::Vector3d r;
-    if (cost.Evaluate(params, r.data(), nullptr) && r.squaredNorm() <= options.chi2_inertial)
-      continue;
-    x.gravity_outlier[i] = 1;
+  auto judge = [&](std::uint8_t& outlier, const Eigen::Vector3d& r, double sigma) {
+    if (outlier || r.squaredNorm() / (sigma * sigma) <= options.chi2_inertial) return;
+    outlier = 1;  // NaN compares false above, so it lands here too
     flagged = true;
-  }
+  };
+  for (std::size_t i = 0; i < problem.gravity.size(); ++i)
+    judge(x.gravity_outlier[i], gravity_residual(problem, problem.gravity[i], pose_params, x),
+          problem.gravity_model.sigma);
   for (std::size_t i = 0; i < problem.gyro.size(); ++i) {
-    if (x.gyro_outlier[i]) continue;
     const BundleProblem::Gyro& g = problem.gyro[i];
-    const GyroCost cost(g.cam_a_from_cam_b, g.bias_jacobian,
-                        problem.gyro_model.noise_density * std::sqrt(g.dt));
-    const double* params[3] = {&pose_params[std::size_t{7} * g.pose_a],
-                               &pose_params[std::size_t{7} * g.pose_b],
-                               x.gyro_bias[g.pose_a].data()};
-    Eigen::Vector3d r;
-    if (cost.Evaluate(params, r.data(), nullptr) && r.squaredNorm() <= options.chi2_inertial)
-      continue;
-    x.gyro_outlier[i] = 1;
-    flagged = true;
+    judge(x.gyro_outlier[i], gyro_residual(g, pose_params, x),
+          problem.gyro_model.noise_density * std::sqrt(g.dt));
   }
   return flagged;
+}
+
+// RMS length of the residuals of the entries not flagged (0 without any).
+template <typename Entry, typename Residual>
+double rms_kept(const std::vector<Entry>& entries, const std::vector<std::uint8_t>& outlier,
+                Residual residual) {
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    if (outlier[i]) continue;
+    sum += residual(entries[i]).squaredNorm();
+    ++n;
+  }
+  return n > 0 ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
 }
 
 }  // namespace
@@ -407,6 +429,11 @@ BundleResult bundle_adjust(BundleProblem& problem, const Intrinsics& k,
     result.up_world = x.up;
     result.accel_bias = x.accel_bias;
   }
+  result.gravity_rms = rms_kept(problem.gravity, x.gravity_outlier, [&](const auto& g) {
+    return gravity_residual(problem, g, pose_params, x);
+  });
+  result.gyro_rms = rms_kept(problem.gyro, x.gyro_outlier,
+                             [&](const auto& g) { return gyro_residual(g, pose_params, x); });
   result.gyro_bias = std::move(x.gyro_bias);
   result.gravity_outlier = std::move(x.gravity_outlier);
   result.gyro_outlier = std::move(x.gyro_outlier);

@@ -115,6 +115,8 @@ struct BundleResult {
   std::vector<Eigen::Vector3d> gyro_bias;
   // Per BundleProblem::gravity / gyro entry: dropped after the first pass (chi2_inertial).
   std::vector<std::uint8_t> gravity_outlier, gyro_outlier;
+  // RMS length of the kept gravity residuals (m/s^2) and gyro residuals (rad) at the result.
+  double gravity_rms = 0.0, gyro_rms = 0.0;
 };
 
 // Optimizes `problem` in place. `abort` (may be null) is polled between iterations.

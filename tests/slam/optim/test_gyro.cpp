@@ -149,19 +149,24 @@ void add_gyro_pairs(BundleProblem& problem, const std::vector<SE3>& truth, std::
   }
 }
 
-TEST(Gyro, BundleAdjustmentHoldsTheHeadingVisionLetsWander) {
-  const std::vector<SE3> truth = square_walk(kWalkKeyframes);
-  std::mt19937 rng(5);
-  BundleProblem problem = walk_problem(truth, rng);
-  BundleProblem with_gyro = problem;
-  add_gyro_pairs(with_gyro, truth, rng);
-  const BundleResult vision = bundle_adjust(problem, kK);
+// The square walk seen by the cameras, to which each test adds its gyro.
+class GyroWalk : public ::testing::Test {
+ protected:
+  const std::vector<SE3> truth_ = square_walk(kWalkKeyframes);
+  std::mt19937 rng_{5};
+  BundleProblem vision_only_ = walk_problem(truth_, rng_);
+};
+
+TEST_F(GyroWalk, BundleAdjustmentHoldsTheHeadingVisionLetsWander) {
+  BundleProblem with_gyro = vision_only_;
+  add_gyro_pairs(with_gyro, truth_, rng_);
+  const BundleResult vision = bundle_adjust(vision_only_, kK);
   const BundleResult result = bundle_adjust(with_gyro, kK);
-  const double vision_error = worst_rotation_error(problem, truth);
-  const double gyro_error = worst_rotation_error(with_gyro, truth);
+  const double vision_error = worst_rotation_error(vision_only_, truth_);
+  const double gyro_error = worst_rotation_error(with_gyro, truth_);
   EXPECT_GT(vision_error, 0.003);  // the wander is there
   EXPECT_LT(gyro_error, 0.5 * vision_error) << vision_error << " -> " << gyro_error;
-  ASSERT_EQ(result.gyro_bias.size(), problem.poses.size());
+  ASSERT_EQ(result.gyro_bias.size(), vision_only_.poses.size());
   EXPECT_LT((result.gyro_bias[kWalkKeyframes / 2] - kGyroBias).norm(), 5e-4)
       << result.gyro_bias[kWalkKeyframes / 2].transpose();
   EXPECT_EQ(std::count(result.gyro_outlier.begin(), result.gyro_outlier.end(), 1), 0);
@@ -172,22 +177,20 @@ TEST(Gyro, BundleAdjustmentHoldsTheHeadingVisionLetsWander) {
 // that snapped between two frames): dropped after the first pass, and the rest still holds the
 // heading. Kept in the second pass, without a kernel, it bent the map (a twin room's walk went
 // from 3.4 to 93 mm).
-TEST(Gyro, BundleAdjustmentDropsAPairTheFramesContradict) {
-  const std::vector<SE3> truth = square_walk(kWalkKeyframes);
-  std::mt19937 rng(5);
-  BundleProblem problem = walk_problem(truth, rng);
-  BundleProblem vision_only = problem;
-  add_gyro_pairs(problem, truth, rng);
+TEST_F(GyroWalk, BundleAdjustmentDropsAPairTheFramesContradict) {
+  BundleProblem problem = vision_only_;
+  add_gyro_pairs(problem, truth_, rng_);
   const std::size_t knocked = 20;
   problem.gyro[knocked].cam_a_from_cam_b =
       problem.gyro[knocked].cam_a_from_cam_b * SO3::exp({0.0, 0.174, 0.0});
   const BundleOptions global{.iterations_robust = 10, .iterations_refine = 20};  // global BA's
-  bundle_adjust(vision_only, kK, global);
+  bundle_adjust(vision_only_, kK, global);
   const BundleResult result = bundle_adjust(problem, kK, global);
   ASSERT_EQ(result.gyro_outlier.size(), problem.gyro.size());
   for (std::size_t i = 0; i < problem.gyro.size(); ++i)
     EXPECT_EQ(result.gyro_outlier[i], i == knocked ? 1 : 0) << "pair " << i;
-  EXPECT_LT(worst_rotation_error(problem, truth), 0.5 * worst_rotation_error(vision_only, truth));
+  EXPECT_LT(worst_rotation_error(problem, truth_),
+            0.5 * worst_rotation_error(vision_only_, truth_));
 }
 
 }  // namespace
