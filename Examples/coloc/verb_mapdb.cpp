@@ -63,6 +63,8 @@ void print_info(const fs::path& file, const mapdb::MapInfo& i, bool json) {
                 {"covisibility_edges", c.covisibility},
                 {"loop_edges", c.loop_edges},
                 {"erased_keyframes", c.erased_keyframes},
+                {"gravity_windows", c.gravity_windows},
+                {"gyro_links", c.gyro_links},
                 {"bytes_per_keyframe", per_kf}});
     return;
   }
@@ -78,7 +80,9 @@ void print_info(const fs::path& file, const mapdb::MapInfo& i, bool json) {
             << "keyframes " << c.keyframes << ", map points " << c.points << ", observations "
             << c.observations << ", markers " << c.markers << ", covisibility edges "
             << c.covisibility << ", loop edges " << c.loop_edges << ", erased keyframes "
-            << c.erased_keyframes << "\n";
+            << c.erased_keyframes << "\n"
+            << "IMU: gravity windows " << c.gravity_windows << ", gyro links " << c.gyro_links
+            << "\n";
 }
 
 void run_verify(const fs::path& file, const fs::path& vocabulary_path, bool json) {

@@ -127,6 +127,14 @@ void Map::erase_keyframe(KeyframeId keyframe) {
     other.covisibility.erase(keyframe);
     auto& ord = other.covisible_ordered;
     ord.erase(std::remove(ord.begin(), ord.end(), keyframe), ord.end());
+    // The gyro measured the whole way from `other` through kf: the link skips kf instead.
+    if (other.gyro && other.gyro->next == keyframe) {
+      if (kf.gyro) {
+        other.gyro = chain(*other.gyro, *kf.gyro);
+      } else {
+        other.gyro.reset();
+      }
+    }
   }
   for (std::size_t i = 0; i < kf.frame.points.size(); ++i) {
     if (kf.frame.points[i].valid()) erase_observation(kf.frame.points[i], keyframe);
@@ -397,6 +405,9 @@ void Map::check_restored_observations() const {
         throw Error("Map::restore: keyframe " + id_text(k.value()) +
                     " has a covisibility edge to missing keyframe " + id_text(other.value()));
     }
+    if (kf.gyro && (kf.gyro->next == k || !keyframes_.count(kf.gyro->next)))
+      throw Error("Map::restore: keyframe " + id_text(k.value()) +
+                  " has a gyro link to missing keyframe " + id_text(kf.gyro->next.value()));
   }
 }
 

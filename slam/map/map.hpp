@@ -20,6 +20,7 @@
 #include "slam/core/ids.hpp"
 #include "slam/core/se3.hpp"
 #include "slam/frame/frame.hpp"
+#include "slam/map/inertial.hpp"
 
 namespace coloc::slam::map {
 
@@ -36,6 +37,10 @@ struct Keyframe {
   std::set<KeyframeId> loop_edges;
   std::vector<markers::MarkerObservation> markers;  // fiducials seen in this keyframe
   double marker_size = 0.0;  // edge length of those markers (metres), from the settings
+  // The IMU's measurements, once its recording stored them (mapping::record_inertial). Erasing
+  // a keyframe chains the link that led to it with its own.
+  std::optional<GravityWindow> gravity;
+  std::optional<GyroLink> gyro;  // to gyro->next
 
   const SE3& cam_from_world() const { return frame.cam_from_world; }
   Eigen::Vector3d camera_centre() const { return frame.camera_centre(); }
@@ -90,8 +95,8 @@ class Map {
   void erase_point(MapPointId point);
   // Keeps the point with more observations; the other's observations move to it.
   void replace_point(MapPointId from, MapPointId to);
-  // Erases a keyframe, reconnecting its children in the spanning tree and handing its loop
-  // edges to its parent.
+  // Erases a keyframe, reconnecting its children in the spanning tree, handing its loop edges
+  // to its parent and chaining the gyro link that led to it with its own (map::chain).
   void erase_keyframe(KeyframeId keyframe);
 
   // Recomputes the keyframe's covisibility edges (both directions) and, the first time, its

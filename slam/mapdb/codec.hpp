@@ -8,7 +8,8 @@
 //   descriptors (32 bytes per keypoint): 4 x u64; bit i of the descriptor is bit i % 64 of
 //       word i / 64 (features/descriptor.hpp)
 //   pose (56 bytes): f64 qx, qy, qz, qw (unit quaternion, Hamilton), tx, ty, tz (metres)
-//   f32 / f64 arrays (scale factors, distortion): the values one after the other
+//   f32 / f64 arrays (scale factors, distortion, a gyro link's 3 x 3 bias Jacobian row by
+//       row): the values one after the other
 #include <cstdint>
 #include <span>
 #include <vector>

@@ -126,8 +126,7 @@ void Snapshot::take(const map::Map& map, const MapWriter& w) {
       points_.push(PointRow::of(p));
   });
   for (const auto& [id, kf] : map.keyframes()) {
-    Entry e;
-    e.row = KeyframeRow::of(kf);
+    Entry e{.row = KeyframeRow::of(kf)};
     e.obs_begin = obs_point_.size();
     // Branch-free compaction of the valid entries: which keypoints hold a point is random, and
     // a branch on it mispredicts half the time (this loop is most of the snapshot's cost).

@@ -94,6 +94,8 @@ class Loader {
   void read_observations();
   void read_covisibility();
   void read_loop_edges();
+  void read_gravity_windows();
+  void read_gyro_links();
   void read_erased();
   void restore();
   void rebuild_bow();
@@ -127,6 +129,8 @@ LoadedMap Loader::run() {
   read_observations();
   read_covisibility();
   read_loop_edges();
+  read_gravity_windows();
+  read_gyro_links();
   read_erased();
   restore();
   if (options_.rebuild_bow && vocabulary_) rebuild_bow();
@@ -377,6 +381,57 @@ void Loader::read_loop_edges() {
       file_.fail("loop_edges.other_id", row_of(a.value(), b.value()),
                  "no reverse row " + row_of(b.value(), a.value()) +
                      " (a loop edge is stored in both directions)");
+  }
+}
+
+// Schema version 3 on: the IMU's measurements a recording stored with its keyframes.
+void Loader::read_gravity_windows() {
+  if (!has_table(file_.schema_version(), "gravity_windows")) return;
+  TableReader t(file_, "gravity_windows");
+  while (t.next()) {
+    Statement& s = t.row();
+    const KeyframeId id(t.id(0, "keyframe_id", "?", false));
+    const std::string row = row_of(id.value());
+    auto kf = keyframes_.find(id);
+    if (kf == keyframes_.end()) t.fail("keyframe_id", row, "no such keyframe");
+    map::GravityWindow g;
+    g.recording = KeyframeId(t.id(1, "recording", row, false));
+    if (g.recording > id) t.fail("recording", row, "a recording that starts after its keyframe");
+    g.specific_force_cam = {s.column_real(2), s.column_real(3), s.column_real(4)};
+    g.accel_world = {s.column_real(5), s.column_real(6), s.column_real(7)};
+    if (!g.specific_force_cam.allFinite() || !g.accel_world.allFinite())
+      t.fail("fx", row, "not a finite measurement");
+    kf->second.gravity = g;
+  }
+}
+
+void Loader::read_gyro_links() {
+  if (!has_table(file_.schema_version(), "gyro_links")) return;
+  TableReader t(file_, "gyro_links");
+  while (t.next()) {
+    Statement& s = t.row();
+    const KeyframeId id(t.id(0, "keyframe_id", "?", false));
+    const std::string row = row_of(id.value());
+    auto kf = keyframes_.find(id);
+    if (kf == keyframes_.end()) t.fail("keyframe_id", row, "no such keyframe");
+    map::GyroLink g;
+    g.recording = KeyframeId(t.id(1, "recording", row, false));
+    if (g.recording > id) t.fail("recording", row, "a recording that starts after its keyframe");
+    g.next = KeyframeId(t.id(2, "next_id", row, false));
+    if (g.next == id || !keyframes_.count(g.next))
+      t.fail("next_id", row, "no such other keyframe");
+    const Eigen::Quaterniond q(s.column_real(6), s.column_real(3), s.column_real(4),
+                               s.column_real(5));
+    if (!(std::abs(q.norm() - 1.0) < 1e-9)) t.fail("qw", row, "not a unit quaternion");
+    g.cam_from_next = SO3::from_unit_quaternion(q);
+    if (s.column_blob(7).size() != kBiasJacobianBytes)
+      t.fail("bias_jacobian", row, "not 72 bytes (3 x 3 doubles)");
+    const std::vector<double> j = decode_f64s(s.column_blob(7));
+    g.bias_jacobian = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(j.data());
+    g.dt = s.column_real(8);
+    if (!(g.dt > 0.0) || !g.bias_jacobian.allFinite())
+      t.fail("dt", row, "not a positive interval with a finite bias Jacobian");
+    kf->second.gyro = g;
   }
 }
 

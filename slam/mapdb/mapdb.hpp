@@ -38,7 +38,7 @@ namespace coloc::slam::mapdb {
 
 // PRAGMA user_version of the files this build writes; it reads this version and older ones
 // (version 1 has no `loop_edges` table: such a map loads without loop edges).
-constexpr int kSchemaVersion = 2;
+constexpr int kSchemaVersion = 3;
 
 // What a map file says about itself (table `metadata`).
 struct MapMetadata {
@@ -145,6 +145,7 @@ struct MapCounts {
   std::uint64_t keyframes = 0, points = 0, observations = 0, markers = 0, covisibility = 0,
                 erased_keyframes = 0, cameras = 0;
   std::uint64_t loop_edges = 0;  // rows, one per direction (0 in a schema-1 file)
+  std::uint64_t gravity_windows = 0, gyro_links = 0;  // 0 before schema 3
 };
 
 struct MapInfo {

@@ -71,6 +71,8 @@ MapCounts MapFile::counts() const {
   c.erased_keyframes = n("erased_keyframes");
   c.cameras = n("cameras");
   if (has_table(schema_version_, "loop_edges")) c.loop_edges = n("loop_edges");
+  if (has_table(schema_version_, "gravity_windows")) c.gravity_windows = n("gravity_windows");
+  if (has_table(schema_version_, "gyro_links")) c.gyro_links = n("gyro_links");
   return c;
 }
 

@@ -65,6 +65,16 @@ const std::vector<TableSchema>& tables() {
        "CREATE TABLE loop_edges (keyframe_id INTEGER NOT NULL, other_id INTEGER NOT NULL, "
        "PRIMARY KEY (keyframe_id, other_id)) WITHOUT ROWID",
        2},
+      {"gravity_windows", "keyframe_id, recording, fx, fy, fz, ax, ay, az", "keyframe_id",
+       "CREATE TABLE gravity_windows (keyframe_id INTEGER PRIMARY KEY, recording INTEGER NOT "
+       "NULL, fx REAL, fy REAL, fz REAL, ax REAL, ay REAL, az REAL)",
+       3},
+      {"gyro_links", "keyframe_id, recording, next_id, qx, qy, qz, qw, bias_jacobian, dt",
+       "keyframe_id",
+       "CREATE TABLE gyro_links (keyframe_id INTEGER PRIMARY KEY, recording INTEGER NOT NULL, "
+       "next_id INTEGER NOT NULL, qx REAL, qy REAL, qz REAL, qw REAL, bias_jacobian BLOB NOT "
+       "NULL, dt REAL)",
+       3},
       {"erased_keyframes", "id, parent, cam_from_parent", "id",
        "CREATE TABLE erased_keyframes (id INTEGER PRIMARY KEY, parent INTEGER NOT NULL, "
        "cam_from_parent BLOB NOT NULL)",

@@ -127,6 +127,26 @@ void add_observations(map::Map& m, const SyntheticMapOptions& o, KeyframeId k,
   tracks = std::move(open);
 }
 
+// Keyframes 0.1 s apart; the values are random but of the right size.
+void add_imu(map::Map& m, const std::vector<KeyframeId>& ids, Rng& rng) {
+  auto noise = [&](double scale) {
+    return Eigen::Vector3d(uniform(rng, -scale, scale), uniform(rng, -scale, scale),
+                           uniform(rng, -scale, scale));
+  };
+  const std::size_t second = ids.size() / 2;
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    const KeyframeId recording = ids[i < second ? 0 : second];
+    map::Keyframe& kf = *m.keyframe(ids[i]);
+    if (i % 7 != 3)
+      kf.gravity = map::GravityWindow{recording, Eigen::Vector3d(0.0, -9.81, 0.0) + noise(0.5),
+                                      noise(0.3)};
+    if (i + 1 == ids.size() || i + 1 == second) continue;  // no link across recordings
+    map::GyroLink link{recording, ids[i + 1], SO3::exp(noise(0.1)), {}, 0.1};
+    link.bias_jacobian = -0.1 * Eigen::Matrix3d::Identity() + SO3::hat(noise(0.005));
+    kf.gyro = link;
+  }
+}
+
 }  // namespace
 
 map::Map make_synthetic_map(const SyntheticMapOptions& o,
@@ -167,6 +187,7 @@ map::Map make_synthetic_map(const SyntheticMapOptions& o,
     m.keyframe(ids[a])->loop_edges.insert(ids[b]);
     m.keyframe(ids[b])->loop_edges.insert(ids[a]);
   }
+  if (o.imu) add_imu(m, ids, rng);
   if (o.erase_every > 0) {
     for (std::size_t i = 1; i < ids.size(); ++i) {
       if (i % static_cast<std::size_t>(o.erase_every) == 0) m.erase_keyframe(ids[i]);

@@ -3,7 +3,8 @@
 // habit: the generator lives in the library). Built through the Map's own editing API, so it
 // has what a real run leaves behind: keyframes with ORB-like keypoints (random descriptors,
 // pyramid levels, depth and virtual right coordinates), points observed by several keyframes,
-// covisibility, a spanning tree, loop edges, markers, and optionally erased keyframes. The geometry
+// covisibility, a spanning tree, loop edges, markers, IMU measurements, and optionally erased
+// keyframes. The geometry
 // is meaningless (keypoints are random pixels); sizes and relations are what count.
 //
 // Keyframe k sits at x = 0.1 k metres in the world, looking along +z (cam_from_world).
@@ -29,6 +30,10 @@ struct SyntheticMapOptions {
   // Loop closures between an early and a late keyframe (both sides' Keyframe::loop_edges, as
   // loop closing adds them), made before erasing, so erased ones are handed to their parents.
   int loop_edges = 3;
+  // Gravity windows and gyro links (Keyframe::gravity, gyro) as two recordings with an IMU
+  // store them, the second starting halfway; every seventh keyframe has no gravity window.
+  // Made before erasing, so the links across erased keyframes are chained.
+  bool imu = true;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
 };

@@ -44,7 +44,9 @@ KeyframeRow KeyframeRow::of(const map::Keyframe& kf) {
           f.features.image_height,
           static_cast<std::uint32_t>(f.size()),
           kf.marker_size,
-          f.geometry_ptr()};
+          f.geometry_ptr(),
+          kf.gravity,
+          kf.gyro};
 }
 
 PointRow PointRow::of(const map::MapPoint& p) {
@@ -179,6 +181,36 @@ void MapWriter::keyframe(const KeyframeRow& r) {
   end_row(t);
   keyframe_ids_.push_back(r.id);
   ++counts_.keyframes;
+  if (r.gravity) gravity(r.id, *r.gravity);
+  if (r.gyro) gyro(r.id, *r.gyro);
+}
+
+void MapWriter::gravity(KeyframeId keyframe, const map::GravityWindow& g) {
+  Table& t = tables_.at("gravity_windows");
+  Statement& s = begin_row(t);
+  s.integer(static_cast<std::int64_t>(keyframe.value()));
+  s.integer(static_cast<std::int64_t>(g.recording.value()));
+  for (const Eigen::Vector3d* v : {&g.specific_force_cam, &g.accel_world})
+    s.real(v->x()).real(v->y()).real(v->z());
+  end_row(t);
+  ++counts_.gravity_windows;
+}
+
+void MapWriter::gyro(KeyframeId keyframe, const map::GyroLink& g) {
+  Table& t = tables_.at("gyro_links");
+  Statement& s = begin_row(t);
+  s.integer(static_cast<std::int64_t>(keyframe.value()));
+  s.integer(static_cast<std::int64_t>(g.recording.value()));
+  s.integer(static_cast<std::int64_t>(g.next.value()));
+  const Eigen::Quaterniond& q = g.cam_from_next.quaternion();
+  s.real(q.x()).real(q.y()).real(q.z()).real(q.w());
+  // Row-major, as the matrix reads.
+  const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> j = g.bias_jacobian;
+  Bytes jacobian;
+  encode_f64s(std::span<const double>(j.data(), 9), jacobian);
+  s.blob(jacobian).real(g.dt);
+  end_row(t);
+  ++counts_.gyro_links;
 }
 
 void MapWriter::markers(KeyframeId keyframe,

@@ -4,6 +4,7 @@
 // B-trees only grow at their right edge and the content checksums can be folded as they go.
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <span>
 #include <unordered_map>
@@ -15,7 +16,8 @@
 
 namespace coloc::slam::mapdb::detail {
 
-// The `keyframes` row of a keyframe: everything but its features, markers and relations.
+// The `keyframes` row of a keyframe, with its `gravity_windows` and `gyro_links` rows:
+// everything but its features, markers and relations.
 struct KeyframeRow {
   KeyframeId id;
   FrameId frame_id;
@@ -27,6 +29,8 @@ struct KeyframeRow {
   std::uint32_t keypoint_count = 0;
   double marker_size = 0.0;
   std::shared_ptr<const frame::FrameGeometry> geometry;
+  std::optional<map::GravityWindow> gravity;
+  std::optional<map::GyroLink> gyro;
 
   static KeyframeRow of(const map::Keyframe& kf);
 };
@@ -63,6 +67,7 @@ class MapWriter {
   // Returns how many were dropped.
   std::size_t drop_features_except(const std::vector<KeyframeId>& keyframes);
   bool has_features(KeyframeId keyframe) const { return feature_hashes_.count(keyframe) > 0; }
+  // The keyframes row, and the keyframe's gravity_windows and gyro_links rows if it has them.
   void keyframe(const KeyframeRow& row);
   void markers(KeyframeId keyframe, std::span<const markers::MarkerObservation> observations);
   // The keyframe's keypoint -> point list (frame.points; invalid ids are skipped), or the valid
@@ -99,6 +104,8 @@ class MapWriter {
   void observation(KeyframeId keyframe, std::uint32_t keypoint, MapPointId point);
   void edge(KeyframeId keyframe, KeyframeId other, int weight);
   void loop_edge(KeyframeId keyframe, KeyframeId other);
+  void gravity(KeyframeId keyframe, const map::GravityWindow& g);
+  void gyro(KeyframeId keyframe, const map::GyroLink& g);
 
   Database db_;
   MapMetadata metadata_;

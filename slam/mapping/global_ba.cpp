@@ -52,24 +52,6 @@ Eigen::Vector3d mean_gyro_bias(const optim::BundleProblem& problem,
   return n > 0 ? Eigen::Vector3d(sum / static_cast<double>(n)) : Eigen::Vector3d::Zero();
 }
 
-// Consecutive keyframes in time from `first` on (InertialMeasurements::first_keyframe).
-void add_gyro(const map::Map& m, const std::vector<KeyframeId>& pose_ids, KeyframeId first,
-              const GyroMeasurements& gyro, optim::BundleProblem& problem) {
-  problem.gyro_model = gyro.options().model;
-  std::vector<std::pair<double, std::uint32_t>> by_time;
-  for (std::size_t i = 0; i < pose_ids.size(); ++i)
-    if (pose_ids[i] >= first)
-      by_time.emplace_back(m.keyframe(pose_ids[i])->frame.timestamp, static_cast<std::uint32_t>(i));
-  std::sort(by_time.begin(), by_time.end());
-  for (std::size_t i = 1; i < by_time.size(); ++i) {
-    auto g = gyro.between(by_time[i - 1].first, by_time[i].first);
-    if (!g) continue;
-    g->pose_a = by_time[i - 1].second;
-    g->pose_b = by_time[i].second;
-    problem.gyro.push_back(*g);
-  }
-}
-
 }  // namespace
 
 GlobalBaReport global_bundle_adjustment(map::SharedMap& shared, const GlobalBaOptions& options,
@@ -85,18 +67,9 @@ GlobalBaReport global_bundle_adjustment(map::SharedMap& shared, const GlobalBaOp
     for (const auto& [id, kf] : m.keyframes())
       all.push_back(id);
     std::sort(all.begin(), all.end());  // deterministic problem order
+    record_inertial(shared.map, imu);
     w = make_window(m, all);
-    if (imu.gyro) add_gyro(m, w.pose_ids, imu.first_keyframe, *imu.gyro, w.problem);
-    if (imu.gravity) {
-      w.problem.gravity_model = imu.gravity->options().model;
-      for (std::size_t i = 0; i < w.pose_ids.size(); ++i) {
-        if (w.pose_ids[i] < imu.first_keyframe) continue;
-        auto g = imu.gravity->at(m.keyframe(w.pose_ids[i])->frame.timestamp);
-        if (!g) continue;
-        g->pose = static_cast<std::uint32_t>(i);
-        w.problem.gravity.push_back(*g);
-      }
-    }
+    add_inertial_terms(m, w.pose_ids, InertialModels::of(imu), w.problem);
   }
   const optim::BundleProblem initial = w.problem;
   Stopwatch watch;
@@ -115,7 +88,7 @@ GlobalBaReport global_bundle_adjustment(map::SharedMap& shared, const GlobalBaOp
   report.iterations = result.iterations;
   report.gravity_keyframes = w.problem.gravity.size();
   report.gravity_outliers = flagged(result.gravity_outlier);
-  report.accel_bias = result.accel_bias;
+  if (!result.accel_bias.empty()) report.accel_bias = result.accel_bias.back();
   report.gravity_rms = result.gravity_rms;
   report.gyro_pairs = w.problem.gyro.size();
   report.gyro_outliers = flagged(result.gyro_outlier);

@@ -5,8 +5,7 @@
 // registers to the laser scan) is then consistent as a whole, not only window by window.
 // Frames follow through their reference keyframes (System::trajectory()).
 #include "slam/map/shared_map.hpp"
-#include "slam/mapping/gravity.hpp"
-#include "slam/mapping/gyro.hpp"
+#include "slam/mapping/inertial.hpp"
 #include "slam/optim/bundle_adjustment.hpp"
 
 namespace coloc::slam::mapping {
@@ -27,7 +26,8 @@ struct GlobalBaReport {
   double ms = 0.0;
   // With gravity: keyframes that had a measurement (of which gravity_outliers were dropped
   // after the first pass: optim::BundleOptions::chi2_inertial), the accelerometer bias
-  // estimated (camera frame, m/s^2) and the RMS of the kept gravity residuals after (m/s^2).
+  // estimated for the newest recording that stored any (camera frame, m/s^2) and the RMS of
+  // the kept gravity residuals after (m/s^2).
   std::size_t gravity_keyframes = 0, gravity_outliers = 0;
   Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
   double gravity_rms = 0.0;
@@ -39,18 +39,9 @@ struct GlobalBaReport {
   Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();
 };
 
-// What an IMU beside the camera adds to the global BA; either may be null.
-struct InertialMeasurements {
-  const GravityMeasurements* gravity = nullptr;  // the keyframes' tilt
-  const GyroMeasurements* gyro = nullptr;        // rotations between consecutive keyframes
-  // The log's recording made the keyframes from this id on (ids are issued in creation order).
-  // A continued map's loaded keyframes belong to another recording, whose clock this log must
-  // not be read at: they keep what vision ties them with, and the new ones carry the IMU.
-  KeyframeId first_keyframe{0};
-};
-
 // Takes the map lock to copy the problem out and to write the result back, not while solving.
-// `imu`: measurements at the keyframes' timestamps, or none.
+// `imu`: what this recording's log measured, first stored in the map (record_inertial); the
+// inertial terms are then what every keyframe stores, this recording's and earlier ones'.
 GlobalBaReport global_bundle_adjustment(map::SharedMap& shared, const GlobalBaOptions& options = {},
                                         const InertialMeasurements& imu = {});
 

@@ -178,8 +178,8 @@ Eigen::Vector3d observed(const Intrinsics& k, const BundleProblem::Observation& 
 struct Extras {
   double delta = 0.0;  // readout change (seconds)
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
-  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
-  std::vector<Eigen::Vector3d> gyro_bias;  // per pose
+  std::vector<Eigen::Vector3d> accel_bias;  // per Gravity::bias
+  std::vector<Eigen::Vector3d> gyro_bias;   // per pose
   // Per problem.gravity / problem.gyro entry: left out of the second pass.
   std::vector<std::uint8_t> gravity_outlier, gyro_outlier;
 };
@@ -196,20 +196,29 @@ void add_gravity(const BundleProblem& problem, std::vector<double>& pose_params,
     // A window whose walker stumbled (a knock on the sensor) must not tilt its keyframe.
     ceres_problem.AddResidualBlock(
         new GravityCost(g.specific_force_cam, g.accel_world, m.magnitude, m.sigma),
-        robust ? new ceres::HuberLoss(3.0) : nullptr, pose, x.up.data(), x.accel_bias.data());
+        robust ? new ceres::HuberLoss(3.0) : nullptr, pose, x.up.data(),
+        x.accel_bias[g.bias].data());
   }
   if (!ceres_problem.HasParameterBlock(x.up.data())) return;
   ceres_problem.SetManifold(x.up.data(), sphere);
-  ceres_problem.AddResidualBlock(
-      new ceres::NormalPrior(Eigen::Matrix3d::Identity() / m.accel_bias_sigma,
-                             Eigen::Vector3d::Zero()),
-      nullptr, x.accel_bias.data());
+  for (Eigen::Vector3d& bias : x.accel_bias) {
+    if (!ceres_problem.HasParameterBlock(bias.data())) continue;
+    ceres_problem.AddResidualBlock(
+        new ceres::NormalPrior(Eigen::Matrix3d::Identity() / m.accel_bias_sigma,
+                               Eigen::Vector3d::Zero()),
+        nullptr, bias.data());
+  }
 }
 
 void add_gyro(const BundleProblem& problem, std::vector<double>& pose_params, Extras& x,
               bool robust, ceres::Problem& ceres_problem) {
   const BundleProblem::GyroModel& m = problem.gyro_model;
-  double* first_bias = nullptr;
+  // Each chain of pairs (one per recording) starts at a pose no pair ends at: its bias has no
+  // walk behind it to hold it, so it takes the prior.
+  std::vector<std::uint8_t> ends(problem.poses.size(), 0);
+  for (const BundleProblem::Gyro& g : problem.gyro)
+    ends[g.pose_b] = 1;
+  std::vector<double*> starts;
   for (std::size_t i = 0; i < problem.gyro.size(); ++i) {
     const BundleProblem::Gyro& g = problem.gyro[i];
     double* a = &pose_params[std::size_t{7} * g.pose_a];
@@ -225,12 +234,14 @@ void add_gyro(const BundleProblem& problem, std::vector<double>& pose_params, Ex
                                      robust ? new ceres::HuberLoss(3.0) : nullptr, a, b, bias_a);
     const double walk = m.random_walk * std::sqrt(g.dt);
     ceres_problem.AddResidualBlock(new GyroBiasWalkCost(walk), nullptr, bias_a, bias_b);
-    if (!first_bias) first_bias = bias_a;
+    if (!ends[g.pose_a] && std::find(starts.begin(), starts.end(), bias_a) == starts.end())
+      starts.push_back(bias_a);
   }
-  if (!first_bias) return;
-  ceres_problem.AddResidualBlock(
-      new ceres::NormalPrior(Eigen::Matrix3d::Identity() / m.bias_sigma, Eigen::Vector3d::Zero()),
-      nullptr, first_bias);
+  for (double* bias : starts)
+    ceres_problem.AddResidualBlock(
+        new ceres::NormalPrior(Eigen::Matrix3d::Identity() / m.bias_sigma,
+                               Eigen::Vector3d::Zero()),
+        nullptr, bias);
 }
 
 // One Ceres solve over the observations not flagged in `skip`; the readout change is a
@@ -334,7 +345,7 @@ Eigen::Vector3d gravity_residual(const BundleProblem& problem, const BundleProbl
                                  const std::vector<double>& pose_params, const Extras& x) {
   const GravityCost cost(g.specific_force_cam, g.accel_world, problem.gravity_model.magnitude, 1.0);
   const double* params[3] = {&pose_params[std::size_t{7} * g.pose], x.up.data(),
-                             x.accel_bias.data()};
+                             x.accel_bias[g.bias].data()};
   Eigen::Vector3d r;
   if (!cost.Evaluate(params, r.data(), nullptr)) r.setConstant(std::nan(""));
   return r;
@@ -401,6 +412,10 @@ BundleResult bundle_adjust(BundleProblem& problem, const Intrinsics& k,
   x.gravity_outlier.assign(problem.gravity.size(), 0);
   x.gyro_outlier.assign(problem.gyro.size(), 0);
   if (!problem.gravity.empty()) {
+    std::uint32_t biases = 0;
+    for (const BundleProblem::Gravity& g : problem.gravity)
+      biases = std::max(biases, g.bias + 1);
+    x.accel_bias.assign(biases, Eigen::Vector3d::Zero());
     // Up starts as the mean of what each keyframe's measurement says it is.
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     for (const BundleProblem::Gravity& g : problem.gravity)
@@ -427,7 +442,7 @@ BundleResult bundle_adjust(BundleProblem& problem, const Intrinsics& k,
   result.readout_change = x.delta;
   if (!problem.gravity.empty()) {
     result.up_world = x.up;
-    result.accel_bias = x.accel_bias;
+    result.accel_bias = x.accel_bias;  // copied: gravity_residual below still reads them
   }
   result.gravity_rms = rms_kept(problem.gravity, x.gravity_outlier, [&](const auto& g) {
     return gravity_residual(problem, g, pose_params, x);

@@ -52,7 +52,10 @@ struct BundleProblem {
   // estimated with a constant accelerometer bias (optim::GravityCost). Vision alone leaves the
   // tilt to a random walk: on the twin building most of the error after loop closing is height.
   struct Gravity {
-    std::uint32_t pose = 0;                                        // index into poses
+    std::uint32_t pose = 0;  // index into poses
+    // Index of its accelerometer bias: one per recording (a sensor's bias changes from one
+    // power-up to the next), the first 0.
+    std::uint32_t bias = 0;
     Eigen::Vector3d specific_force_cam = Eigen::Vector3d::Zero();  // m/s^2
     Eigen::Vector3d accel_world = Eigen::Vector3d::Zero();         // m/s^2
   };
@@ -64,7 +67,8 @@ struct BundleProblem {
   // A gyro between two keyframes (mapping/gyro.hpp): the rotation cam_a_from_cam_b it
   // integrated at zero bias, and how that changes with the bias (camera frame, rad/s), to first
   // order: measured(b) = measured * exp(bias_jacobian * b). Each keyframe with a Gyro has a bias
-  // of its own; consecutive ones are tied by the bias random walk (optim::GyroCost).
+  // of its own; consecutive ones are tied by the bias random walk (optim::GyroCost), and the
+  // first of each chain (a recording) by a prior.
   struct Gyro {
     std::uint32_t pose_a = 0, pose_b = 0;  // indices into poses; a earlier than b
     SO3 cam_a_from_cam_b;
@@ -74,7 +78,7 @@ struct BundleProblem {
   struct GyroModel {
     double noise_density = 1.7e-4;  // rad/s/sqrt(Hz) (ORB-SLAM3's IMU.NoiseGyro)
     double random_walk = 1.9e-5;    // rad/s^2/sqrt(Hz) (IMU.GyroWalk)
-    double bias_sigma = 0.05;       // rad/s per axis: a prior on the first keyframe's bias
+    double bias_sigma = 0.05;       // rad/s per axis: a prior on each chain's first bias
   };
   std::vector<Pose> poses;
   std::vector<Eigen::Vector3d> points;  // world, metres
@@ -106,10 +110,10 @@ struct BundleResult {
   int iterations = 0;
   double initial_cost = 0.0, final_cost = 0.0;
   double readout_change = 0.0;  // seconds, estimated readout - problem.readout.current
-  // With BundleProblem::gravity: the unit vector against gravity in the world frame, and the
-  // accelerometer bias (camera frame, m/s^2). Zero without.
+  // With BundleProblem::gravity: the unit vector against gravity in the world frame (zero
+  // without), and the accelerometer biases by Gravity::bias (camera frame, m/s^2).
   Eigen::Vector3d up_world = Eigen::Vector3d::Zero();
-  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> accel_bias;
   // With BundleProblem::gyro: the gyro bias (camera frame, rad/s) per pose, zero for poses
   // without a Gyro; empty without.
   std::vector<Eigen::Vector3d> gyro_bias;

@@ -84,9 +84,18 @@ def main():
         # Loop edges (schema 2): one row per direction, each closure once by the README's query.
         loops = con.execute("SELECT keyframe_id, other_id FROM loop_edges "
                             "WHERE keyframe_id < other_id ORDER BY keyframe_id").fetchall()
-        ok &= check(15, info["schema_version"] == 2 and info["loop_edges"] > 0
+        ok &= check(15, info["schema_version"] == 3 and info["loop_edges"] > 0
                     and len(loops) * 2 == info["loop_edges"]
                     == con.execute("SELECT COUNT(*) FROM loop_edges").fetchone()[0])
+        # The IMU's measurements (schema 3) by recording, by the README's query: the synthetic
+        # map has two recordings.
+        imu = con.execute(
+            "SELECT k.recording, COUNT(*), SUM(g.keyframe_id IS NOT NULL), SUM(k.dt) "
+            "FROM gyro_links k LEFT JOIN gravity_windows g ON g.keyframe_id = k.keyframe_id "
+            "GROUP BY k.recording ORDER BY k.recording").fetchall()
+        print("imu by recording:", imu)
+        ok &= check(16, len(imu) == 2 and sum(r[1] for r in imu) == info["gyro_links"] > 0
+                    and all(0 < r[2] <= r[1] and r[3] > 0 for r in imu))
         con.close()
 
         # One damaged byte in the middle of the file (keyframe blobs fill most of it).
@@ -96,7 +105,8 @@ def main():
         v = run([coloc, "mapdb", "verify", bad])
         print("damaged:", v.returncode, v.stdout.strip())
         tables = ("metadata", "cameras", "keyframes", "keyframe_features", "markers",
-                  "map_points", "observations", "covisibility", "loop_edges", "erased_keyframes")
+                  "map_points", "observations", "covisibility", "loop_edges", "gravity_windows",
+                  "gyro_links", "erased_keyframes")
         ok &= check(11, v.returncode == 1 and "bad.db" in v.stdout
                     and any(t in v.stdout for t in tables))
 

@@ -64,6 +64,46 @@ TEST(Map, ObservationsCovisibilityAndSpanningTreeStayConsistent) {
   }
 }
 
+// The gyro measured the whole way from a through an erased b to c: a's link then reaches c, with
+// the rotations composed and the bias Jacobian right to first order in the bias.
+TEST(Map, ErasingAKeyframeChainsTheGyroLinkThroughIt) {
+  Map map;
+  std::vector<KeyframeId> ids;
+  for (int k = 0; k < 4; ++k)
+    ids.push_back(map.add_keyframe(row_keyframe(map, 20, {0.1 * k, 0, 0})).id);
+  const KeyframeId recording = ids[0];
+  const std::vector<GyroLink> links = {
+      {recording, ids[1], SO3::exp({0.3, -0.1, 0.2}), Eigen::Matrix3d::Identity() * -0.2, 0.2},
+      {recording, ids[2], SO3::exp({-0.2, 0.4, 0.1}),
+       Eigen::Matrix3d::Identity() * -0.3 + SO3::hat({0.01, 0.02, -0.03}), 0.3},
+      {recording, ids[3], SO3::exp({0.1, 0.1, -0.5}), Eigen::Matrix3d::Identity() * -0.1, 0.1}};
+  for (std::size_t k = 0; k < links.size(); ++k)
+    map.keyframe(ids[k])->gyro = links[k];
+
+  map.erase_keyframe(ids[1]);
+  const std::optional<GyroLink>& ac = map.keyframe(ids[0])->gyro;
+  ASSERT_TRUE(ac);
+  EXPECT_EQ(ac->next, ids[2]);
+  EXPECT_EQ(ac->recording, recording);
+  EXPECT_DOUBLE_EQ(ac->dt, 0.5);
+  // With a bias b, each measured rotation is R exp(J b); the chained one must agree with the
+  // product of the two to second order (a Jacobian merely added would be off to first order).
+  const Eigen::Vector3d bias(1e-3, -0.5e-3, 1.5e-3);
+  const auto corrected = [&](const GyroLink& l) {
+    return l.cam_from_next * SO3::exp(l.bias_jacobian * bias);
+  };
+  EXPECT_LT(angular_distance(corrected(*ac), corrected(links[0]) * corrected(links[1])), 1e-6);
+  EXPECT_GT(angular_distance(ac->cam_from_next *
+                              SO3::exp((links[0].bias_jacobian + links[1].bias_jacobian) * bias),
+                          corrected(links[0]) * corrected(links[1])),
+            5e-5);
+
+  // The last keyframe has no link of its own: the one that led to it goes with it.
+  map.erase_keyframe(ids[3]);
+  EXPECT_FALSE(map.keyframe(ids[2])->gyro);
+  EXPECT_TRUE(map.keyframe(ids[0])->gyro);
+}
+
 TEST(Map, PointStatisticsFollowObservations) {
   Map map;
   const KeyframeId a = map.add_keyframe(row_keyframe(map, 5, {0, 0, 0})).id;

@@ -98,6 +98,26 @@ inline std::string frame_difference(const frame::Frame& a, const frame::Frame& b
   return {};
 }
 
+inline std::string inertial_difference(const map::Keyframe& a, const map::Keyframe& b) {
+  if (a.gravity.has_value() != b.gravity.has_value()) return "gravity window presence";
+  if (a.gravity && (a.gravity->recording != b.gravity->recording ||
+                    !same_value(a.gravity->specific_force_cam, b.gravity->specific_force_cam) ||
+                    !same_value(a.gravity->accel_world, b.gravity->accel_world)))
+    return "gravity window";
+  if (a.gyro.has_value() != b.gyro.has_value()) return "gyro link presence";
+  if (!a.gyro) return {};
+  const map::GyroLink& p = *a.gyro;
+  const map::GyroLink& q = *b.gyro;
+  if (p.recording != q.recording || p.next != q.next || !same_value(p.dt, q.dt))
+    return "gyro link";
+  if (!same_value(Eigen::Vector4d(p.cam_from_next.quaternion().coeffs()),
+                  Eigen::Vector4d(q.cam_from_next.quaternion().coeffs())))
+    return "gyro link rotation";
+  for (int i = 0; i < 9; ++i)
+    if (!same_bits(p.bias_jacobian(i), q.bias_jacobian(i))) return "gyro link bias Jacobian";
+  return {};
+}
+
 inline std::string keyframe_difference(const map::Keyframe& a, const map::Keyframe& b) {
   if (a.parent != b.parent) return "parent";
   if (a.children != b.children) return "children";
@@ -105,6 +125,7 @@ inline std::string keyframe_difference(const map::Keyframe& a, const map::Keyfra
   if (a.covisible_ordered != b.covisible_ordered) return "covisible_ordered";
   if (a.loop_edges != b.loop_edges) return "loop_edges";
   if (!same_value(a.marker_size, b.marker_size)) return "marker_size";
+  if (const std::string d = inertial_difference(a, b); !d.empty()) return d;
   if (a.markers.size() != b.markers.size()) return "marker count";
   for (std::size_t i = 0; i < a.markers.size(); ++i) {
     const auto& p = a.markers[i];

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <fstream>
+#include <functional>
 #include <random>
 #include <set>
 
@@ -53,7 +54,7 @@ std::string load_error(const fs::path& p) {
 bool names_a_table(const std::string& message) {
   for (const char* t : {"metadata", "cameras", "keyframes", "keyframe_features", "markers",
                         "map_points", "observations", "covisibility", "loop_edges",
-                        "erased_keyframes", "user_version", "application_id", "sqlite_master"}) {
+                        "gravity_windows", "gyro_links", "erased_keyframes", "user_version", "application_id", "sqlite_master"}) {
     if (message.find(t) != std::string::npos) return true;
   }
   return false;
@@ -71,6 +72,37 @@ class MapDbErrors : public ::testing::Test {
     const fs::path p = dir_ / name;
     fs::copy_file(good_, p, fs::copy_options::overwrite_existing);
     return p;
+  }
+  // A file of the map's first keyframe and the next (its child) with sound checksums, written
+  // through the internal writer: `edit` may change each keyframe's row (which comes without
+  // IMU links), `after` add rows once it is written.
+  using EditRow = std::function<void(const map::Keyframe&, detail::KeyframeRow&)>;
+  using AddRows = std::function<void(const map::Keyframe&, detail::MapWriter&)>;
+  void write_pair(const fs::path& p, const EditRow& edit, const AddRows& after = {}) {
+    const map::Keyframe& first = *map_.keyframe(map_.first_keyframe());
+    const map::Keyframe& second = second_keyframe();
+    AtomicFile out(p);
+    detail::MapWriter w(out.temp_path(), {}, test::test_metadata());
+    detail::EncodedFeatures f;
+    for (const map::Keyframe* kf : {&first, &second}) {
+      f.encode(kf->id, kf->frame);
+      w.features(f);
+      detail::KeyframeRow row = detail::KeyframeRow::of(*kf);
+      row.parent = kf == &first ? KeyframeId() : first.id;
+      row.gyro.reset();
+      edit(*kf, row);
+      w.keyframe(row);
+      if (after) after(*kf, w);
+    }
+    w.finish(first.id, second.id.value() + 1, 100);
+    out.commit(false);
+  }
+  const map::Keyframe& second_keyframe() const {
+    const map::Keyframe* second = nullptr;
+    for (const auto& [id, kf] : map_.keyframes()) {
+      if (map_.first_keyframe() < id && (!second || id < second->id)) second = &kf;
+    }
+    return *second;
   }
   fs::path dir_, good_;
   map::Map map_;
@@ -220,28 +252,15 @@ TEST_F(MapDbErrors, BrokenReferencesNameTableColumnAndRow) {
 // through the internal writer): named by table, column and row.
 TEST_F(MapDbErrors, BrokenLoopEdgesNameTableColumnAndRow) {
   const map::Keyframe& first = *map_.keyframe(map_.first_keyframe());
-  const map::Keyframe* second = nullptr;
-  for (const auto& [id, kf] : map_.keyframes()) {
-    if (first.id < id && (!second || id < second->id)) second = &kf;
-  }
-  ASSERT_NE(second, nullptr);
-  // Keyframes `first` and `second` (a child of first); loop edges first -> other, and the
-  // reverse one when `both_sides`.
+  const map::Keyframe* second = &second_keyframe();
+  // Loop edges first -> other, and the reverse one when `both_sides`.
   auto write = [&](const fs::path& p, KeyframeId other, bool both_sides) {
-    AtomicFile out(p);
-    detail::MapWriter w(out.temp_path(), {}, test::test_metadata());
-    detail::EncodedFeatures f;
-    for (const map::Keyframe* kf : {&first, second}) {
-      f.encode(kf->id, kf->frame);
-      w.features(f);
-      detail::KeyframeRow row = detail::KeyframeRow::of(*kf);
-      row.parent = kf == &first ? KeyframeId() : first.id;
-      w.keyframe(row);
-      if (kf == &first) w.loop_edges(kf->id, std::set<KeyframeId>{other});
-      if (kf == second && both_sides) w.loop_edges(kf->id, std::set<KeyframeId>{first.id});
-    }
-    w.finish(first.id, second->id.value() + 1, 100);
-    out.commit(false);
+    write_pair(
+        p, [](const map::Keyframe&, detail::KeyframeRow&) {},
+        [&](const map::Keyframe& kf, detail::MapWriter& w) {
+          if (&kf == &first) w.loop_edges(kf.id, std::set<KeyframeId>{other});
+          if (&kf == second && both_sides) w.loop_edges(kf.id, std::set<KeyframeId>{first.id});
+        });
   };
   const std::string row = "row (" + std::to_string(first.id.value()) + ", ";
 
@@ -273,6 +292,45 @@ TEST_F(MapDbErrors, BrokenLoopEdgesNameTableColumnAndRow) {
   v = verify_map(missing);
   ASSERT_FALSE(v.ok());
   EXPECT_NE(v.problems.back().find("loop_edges.other_id"), std::string::npos);
+}
+
+// The IMU's rows with sound checksums but a link to a missing keyframe or a recording that
+// starts after its keyframe: named by table, column and row; a sound link loads.
+TEST_F(MapDbErrors, BrokenGyroLinksNameTableColumnAndRow) {
+  const map::Keyframe& first = *map_.keyframe(map_.first_keyframe());
+  const map::Keyframe& second = second_keyframe();
+  ASSERT_TRUE(first.gyro && first.gravity);
+  auto write = [&](const fs::path& p, KeyframeId next, KeyframeId recording) {
+    write_pair(p, [&](const map::Keyframe& kf, detail::KeyframeRow& row) {
+      if (&kf != &first) return;
+      row.gyro = *first.gyro;
+      row.gyro->next = next;
+      row.gravity->recording = recording;
+    });
+  };
+  const fs::path good = dir_ / "gyro_good.db";
+  write(good, second.id, first.id);
+  const LoadedMap loaded = load_map(good, test_support::vocabulary());
+  ASSERT_TRUE(loaded.map.keyframe(first.id)->gyro);
+  EXPECT_EQ(loaded.map.keyframe(first.id)->gyro->next, second.id);
+  EXPECT_EQ(read_map_info(good).counts.gyro_links, 1u);
+
+  const std::string row = "row " + std::to_string(first.id.value());
+  const fs::path missing = dir_ / "gyro_missing.db";
+  write(missing, KeyframeId(999), first.id);
+  std::string e = load_error(missing);
+  EXPECT_NE(e.find(missing.string()), std::string::npos) << e;
+  EXPECT_NE(e.find("gyro_links.next_id"), std::string::npos) << e;
+  EXPECT_NE(e.find(row), std::string::npos) << e;
+  const VerifyReport v = verify_map(missing);
+  ASSERT_FALSE(v.ok());
+  EXPECT_NE(v.problems.back().find("gyro_links.next_id"), std::string::npos);
+
+  const fs::path late = dir_ / "gravity_late.db";
+  write(late, second.id, second.id);
+  e = load_error(late);
+  EXPECT_NE(e.find("gravity_windows.recording"), std::string::npos) << e;
+  EXPECT_NE(e.find(row), std::string::npos) << e;
 }
 
 TEST_F(MapDbErrors, FailedSaveKeepsThePreviousFile) {

@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "slam/mapdb/metadata.hpp"
+#include "slam/mapdb/schema.hpp"
 #include "slam/synthetic/synthetic_scene.hpp"
 #include "slam/system/system.hpp"
 #include "tests/slam/mapdb/map_compare.hpp"
@@ -28,18 +29,36 @@ std::size_t loop_edge_rows(const map::Map& m) {
   return n;
 }
 
-// Turns a map file this build wrote into the file schema version 1 was: no `loop_edges` table,
-// no count/checksum entries for it (metadata checksum recomputed), user_version 1. Every other
-// table of version 1 is the same.
-void make_schema_version_1(const fs::path& p) {
+// IMU rows of the map, as the file stores them.
+std::size_t gravity_rows(const map::Map& m) {
+  std::size_t n = 0;
+  for (const auto& [id, kf] : m.keyframes())
+    n += kf.gravity ? 1 : 0;
+  return n;
+}
+std::size_t gyro_rows(const map::Map& m) {
+  std::size_t n = 0;
+  for (const auto& [id, kf] : m.keyframes())
+    n += kf.gyro ? 1 : 0;
+  return n;
+}
+
+// Turns a map file this build wrote into the file an older schema version was: the tables
+// added after it dropped with their count/checksum entries (metadata checksum recomputed), the
+// older user_version. Every other table is the same in all versions.
+void make_schema_version(const fs::path& p, int version) {
   sqlite3* db = nullptr;
   ASSERT_EQ(sqlite3_open(p.c_str(), &db), SQLITE_OK);
   auto exec = [&](const std::string& statement) {
     EXPECT_EQ(sqlite3_exec(db, statement.c_str(), nullptr, nullptr, nullptr), SQLITE_OK)
         << statement << ": " << sqlite3_errmsg(db);
   };
-  exec("DROP TABLE loop_edges");
-  exec("DELETE FROM metadata WHERE key IN ('count.loop_edges', 'checksum.loop_edges')");
+  for (const detail::TableSchema& t : detail::tables()) {
+    if (t.since <= version) continue;
+    exec(std::string("DROP TABLE ") + t.name);
+    exec(std::string("DELETE FROM metadata WHERE key IN ('count.") + t.name + "', 'checksum." +
+         t.name + "')");
+  }
   detail::MetadataEntries entries;
   sqlite3_stmt* s = nullptr;
   ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT key, value FROM metadata", -1, &s, nullptr), SQLITE_OK);
@@ -50,9 +69,21 @@ void make_schema_version_1(const fs::path& p) {
   sqlite3_finalize(s);
   exec("UPDATE metadata SET value = '" + detail::hex64(detail::metadata_checksum(entries)) +
        "' WHERE key = 'checksum.metadata'");
-  exec("PRAGMA user_version = 1");
+  exec("PRAGMA user_version = " + std::to_string(version));
   exec("VACUUM");
   sqlite3_close(db);
+}
+
+// `m` without what schema `version` does not store.
+map::Map as_schema_version(map::Map m, int version) {
+  m.for_each_keyframe([&](map::Keyframe& kf) {
+    if (version < 2) kf.loop_edges.clear();
+    if (version < 3) {
+      kf.gravity.reset();
+      kf.gyro.reset();
+    }
+  });
+  return m;
 }
 
 void expect_same_metadata(const MapMetadata& a, const MapMetadata& b) {
@@ -99,6 +130,8 @@ TEST(MapDb, SaveLoadIsIdenticalFieldByField) {
   const map::Map original = test::small_map();
   ASSERT_FALSE(original.erased_keyframes().empty());
   ASSERT_GT(loop_edge_rows(original), 0u);
+  ASSERT_GT(gravity_rows(original), 0u);
+  ASSERT_GT(gyro_rows(original), 0u);
   ASSERT_EQ(test_support::map_problem(original), "");
   const auto path = testing::temp_dir("mapdb_roundtrip") / "map.db";
   const MapMetadata metadata = test::test_metadata();
@@ -110,6 +143,8 @@ TEST(MapDb, SaveLoadIsIdenticalFieldByField) {
   const MapInfo info = read_map_info(path);
   EXPECT_EQ(info.schema_version, kSchemaVersion);
   EXPECT_EQ(info.counts.loop_edges, loop_edge_rows(original));
+  EXPECT_EQ(info.counts.gravity_windows, gravity_rows(original));
+  EXPECT_EQ(info.counts.gyro_links, gyro_rows(original));
 
   LoadedMap loaded = load_map(path, test_support::vocabulary());
   EXPECT_EQ(map_difference(original, loaded.map), "");
@@ -138,40 +173,40 @@ TEST(MapDb, SaveLoadIsIdenticalFieldByField) {
   EXPECT_EQ(map_difference(original, load_map(again, test_support::vocabulary()).map), "");
 }
 
-// A file of schema version 1 (before loop edges were stored) still loads and verifies, without
-// loop edges; saving it again writes the current version.
-TEST(MapDb, SchemaVersion1FileLoadsWithoutLoopEdges) {
+// Files of older schema versions still load and verify, without what they did not store
+// (version 1: loop edges; version 2: the IMU's measurements); saving one again writes the
+// current version.
+TEST(MapDb, OlderSchemaVersionsLoadWithoutWhatTheyLacked) {
   const map::Map original = test::small_map(6, 24);
   ASSERT_GT(loop_edge_rows(original), 0u);
-  const fs::path dir = testing::temp_dir("mapdb_v1");
-  const fs::path path = dir / "v1.db";
-  save_map(original, test::test_metadata(), path);
-  make_schema_version_1(path);
-  const MapInfo info = read_map_info(path);
-  EXPECT_EQ(info.schema_version, 1);
-  EXPECT_EQ(info.counts.loop_edges, 0u);
-  EXPECT_EQ(info.counts.keyframes, original.keyframe_count());
-  const VerifyReport v = verify_map(path, &test_support::vocabulary());
-  EXPECT_TRUE(v.ok()) << (v.problems.empty() ? "" : v.problems.front());
+  ASSERT_GT(gyro_rows(original), 0u);
+  const fs::path dir = testing::temp_dir("mapdb_older");
+  for (int version = 1; version < kSchemaVersion; ++version) {
+    SCOPED_TRACE("schema version " + std::to_string(version));
+    const fs::path path = dir / ("v" + std::to_string(version) + ".db");
+    save_map(original, test::test_metadata(), path);
+    make_schema_version(path, version);
+    const MapInfo info = read_map_info(path);
+    EXPECT_EQ(info.schema_version, version);
+    EXPECT_EQ(info.counts.loop_edges, version >= 2 ? loop_edge_rows(original) : 0u);
+    EXPECT_EQ(info.counts.gyro_links, 0u);
+    EXPECT_EQ(info.counts.keyframes, original.keyframe_count());
+    const VerifyReport v = verify_map(path, &test_support::vocabulary());
+    EXPECT_TRUE(v.ok()) << (v.problems.empty() ? "" : v.problems.front());
 
-  const LoadedMap loaded = load_map(path, test_support::vocabulary());
-  EXPECT_EQ(loop_edge_rows(loaded.map), 0u);
-  map::Map expected = original;
-  std::vector<KeyframeId> ids;
-  for (const auto& [id, kf] : expected.keyframes())
-    ids.push_back(id);
-  for (KeyframeId id : ids)
-    expected.keyframe(id)->loop_edges.clear();
-  EXPECT_EQ(map_difference(expected, loaded.map), "");
-  EXPECT_EQ(map_difference(loaded.map, expected), "");
-  // Without the clearing above, the comparison sees the loss.
-  EXPECT_NE(map_difference(original, loaded.map), "");
+    const LoadedMap loaded = load_map(path, test_support::vocabulary());
+    const map::Map expected = as_schema_version(original, version);
+    EXPECT_EQ(map_difference(expected, loaded.map), "");
+    EXPECT_EQ(map_difference(loaded.map, expected), "");
+    // Without the clearing above, the comparison sees the loss.
+    EXPECT_NE(map_difference(original, loaded.map), "");
 
-  const fs::path again = dir / "v2.db";
-  save_map(loaded.map, loaded.metadata, again);
-  EXPECT_EQ(read_map_info(again).schema_version, kSchemaVersion);
-  EXPECT_TRUE(verify_map(again, &test_support::vocabulary()).ok());
-  EXPECT_EQ(map_difference(expected, load_map(again, test_support::vocabulary()).map), "");
+    const fs::path again = dir / ("v" + std::to_string(version) + "_again.db");
+    save_map(loaded.map, loaded.metadata, again);
+    EXPECT_EQ(read_map_info(again).schema_version, kSchemaVersion);
+    EXPECT_TRUE(verify_map(again, &test_support::vocabulary()).ok());
+    EXPECT_EQ(map_difference(expected, load_map(again, test_support::vocabulary()).map), "");
+  }
 }
 
 TEST(MapDb, EmptyMapRoundTrips) {

@@ -120,7 +120,7 @@ TEST(GlobalBundleAdjustment, RecoversPerturbedPosesAndPoints) {
 
 // A continued map: keyframes 0-2 came from an earlier recording, 3-5 from this one, whose IMU
 // log covers all six timestamps (another recording's clock may well overlap this one's). Only
-// 3-5 may take gravity, and the gyro only between 4 and 3, 5 and 4. The camera stands at each
+// 3-5 may take gravity from this log, and the gyro only between 4 and 3, 5 and 4. The camera stands at each
 // keyframe's pose around its second: the accelerometer reads gravity, the gyro nothing.
 TEST(GlobalBundleAdjustment, TheImuTiesOnlyTheKeyframesOfItsRecording) {
   const std::vector<SE3> truth = perturbed_map().truth;
@@ -151,6 +151,22 @@ TEST(GlobalBundleAdjustment, TheImuTiesOnlyTheKeyframesOfItsRecording) {
   EXPECT_EQ(second_recording.gravity_keyframes, 3u);
   EXPECT_EQ(second_recording.gyro_pairs, 2u);
   EXPECT_EQ(second_recording.keyframes, 6u);  // all of them still adjusted by vision
+
+  // Had the earlier recording stored its own measurements (here: this log's, as if it were
+  // the earlier one's), they hold keyframes 0-2 too, with a bias of their own. No link joins
+  // the recordings: 2 -> 3 goes when 3-5 are measured again as another recording.
+  const PerturbedMap stored = perturbed_map();
+  mapping::global_bundle_adjustment(*stored.shared, {}, {.gravity = &gravity, .gyro = &gyro});
+  const mapping::GlobalBaReport both = mapping::global_bundle_adjustment(
+      *stored.shared, {},
+      {.gravity = &gravity, .gyro = &gyro, .first_keyframe = stored.keyframes[3]});
+  EXPECT_EQ(both.gravity_keyframes, 6u);
+  EXPECT_EQ(both.gyro_pairs, 4u);
+  const map::Map& m = stored.shared->map;
+  EXPECT_EQ(m.keyframe(stored.keyframes[1])->gravity->recording, stored.keyframes[0]);
+  EXPECT_EQ(m.keyframe(stored.keyframes[4])->gravity->recording, stored.keyframes[3]);
+  EXPECT_FALSE(m.keyframe(stored.keyframes[2])->gyro);
+  EXPECT_EQ(m.keyframe(stored.keyframes[3])->gyro->next, stored.keyframes[4]);
 }
 
 TEST(GlobalBundleAdjustment, KeepsASlamMapConsistentAndAccurate) {

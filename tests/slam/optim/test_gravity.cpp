@@ -62,6 +62,25 @@ TEST(Gravity, CostJacobiansMatchNumericalDerivatives) {
   }
 }
 
+// A walk around a square whose tilt drifted as tracking leaves it: each keyframe tilted a little
+// more than the one before (a random walk of 1 mrad per keyframe, about the walking direction and
+// across it), with points placed by the drifted poses and seen exactly.
+struct DriftedWalk {
+  std::vector<SE3> truth;    // world_from_cam
+  std::vector<SE3> drifted;  // world_from_cam
+  BundleProblem problem;     // vision only
+
+  // The accelerometer at rest on keyframe i: g upwards, plus the bias.
+  BundleProblem::Gravity at_rest(std::size_t i, const Eigen::Vector3d& bias) const {
+    BundleProblem::Gravity g;
+    g.pose = static_cast<std::uint32_t>(i);
+    g.specific_force_cam = truth[i].rotation().transpose() * Eigen::Vector3d(0.0, 0.0, 9.81) + bias;
+    return g;
+  }
+  // The worst tilt error of the problem's poses against `up_world`.
+  double worst_tilt(const BundleProblem& p, const Eigen::Vector3d& up_world) const;
+};
+
 double tilt_error(const SE3& cam_from_world, const Eigen::Vector3d& up_world,
                   const SE3& true_world_from_cam) {
   const Eigen::Vector3d up_cam = cam_from_world.rotation() * up_world;
@@ -70,21 +89,28 @@ double tilt_error(const SE3& cam_from_world, const Eigen::Vector3d& up_world,
   return std::acos(std::clamp(up_cam.normalized().dot(true_up_cam), -1.0, 1.0));
 }
 
-TEST(Gravity, BundleAdjustmentTakesTheTiltDriftOut) {
-  const int n = 40;
-  const std::vector<SE3> truth = square_walk(n);
-  // Tracking's result: each keyframe tilted a little more than the one before, about the
-  // walking direction and across it (a random walk of 1 mrad per keyframe), positions along.
+double DriftedWalk::worst_tilt(const BundleProblem& p, const Eigen::Vector3d& up_world) const {
+  double worst = 0.0;
+  for (std::size_t i = 0; i < truth.size(); ++i)
+    worst = std::max(worst, tilt_error(p.poses[i].cam_from_world, up_world, truth[i]));
+  return worst;
+}
+
+DriftedWalk drifted_walk(int n) {
+  DriftedWalk w;
+  w.truth = square_walk(n);
+  const std::vector<SE3>& truth = w.truth;
+  std::vector<SE3>& drifted = w.drifted;
+  BundleProblem& problem = w.problem;
   std::mt19937 rng(3);
   std::normal_distribution<double> step(0.0, 0.001);
-  std::vector<SE3> drifted{truth[0]};
+  drifted.push_back(truth[0]);
   Eigen::Vector3d tilt = Eigen::Vector3d::Zero();
   for (int i = 1; i < n; ++i) {
     tilt += Eigen::Vector3d(step(rng), step(rng), 0.0);
     drifted.push_back(SE3(SO3::exp(tilt), Eigen::Vector3d::Zero()) *
                       truth[static_cast<std::size_t>(i)]);
   }
-  BundleProblem problem;
   for (int i = 0; i < n; ++i)
     problem.poses.push_back({drifted[static_cast<std::size_t>(i)].inverse(), i == 0});
   // Points ahead of each keyframe, placed by its drifted pose (as tracking made them) and seen
@@ -108,33 +134,58 @@ TEST(Gravity, BundleAdjustmentTakesTheTiltDriftOut) {
       }
     }
   }
+  return w;
+}
+
+TEST(Gravity, BundleAdjustmentTakesTheTiltDriftOut) {
+  const int n = 40;
+  const DriftedWalk walk = drifted_walk(n);
+  const std::vector<SE3>& truth = walk.truth;
+  const std::vector<SE3>& drifted = walk.drifted;
+  BundleProblem problem = walk.problem;
   const Eigen::Vector3d bias(0.05, -0.05, 0.03);  // m/s^2, camera frame
   BundleProblem with_gravity = problem;
-  for (int i = 0; i < n; ++i) {
-    BundleProblem::Gravity g;
-    g.pose = static_cast<std::uint32_t>(i);
-    // At rest the accelerometer reads g upwards (plus its bias).
-    g.specific_force_cam = truth[static_cast<std::size_t>(i)].rotation().transpose() *
-                               Eigen::Vector3d(0.0, 0.0, 9.81) +
-                           bias;
-    with_gravity.gravity.push_back(g);
-  }
+  for (std::size_t i = 0; i < truth.size(); ++i)
+    with_gravity.gravity.push_back(walk.at_rest(i, bias));
   const BundleResult vision = bundle_adjust(problem, kK);
   const BundleResult result = bundle_adjust(with_gravity, kK);
   EXPECT_NEAR(result.up_world.norm(), 1.0, 1e-9);
-  EXPECT_LT((result.accel_bias - bias).norm(), 0.01) << result.accel_bias.transpose();
-  double before = 0.0, vision_only = 0.0, after = 0.0;
-  for (std::size_t i = 0; i < truth.size(); ++i) {
+  ASSERT_EQ(result.accel_bias.size(), 1u);
+  EXPECT_LT((result.accel_bias[0] - bias).norm(), 0.01) << result.accel_bias[0].transpose();
+  double before = 0.0;
+  for (std::size_t i = 0; i < truth.size(); ++i)
     before = std::max(before, tilt_error(drifted[i].inverse(), Eigen::Vector3d::UnitZ(), truth[i]));
-    vision_only = std::max(vision_only, tilt_error(problem.poses[i].cam_from_world,
-                                                   Eigen::Vector3d::UnitZ(), truth[i]));
-    after = std::max(after,
-                     tilt_error(with_gravity.poses[i].cam_from_world, result.up_world, truth[i]));
-  }
+  const double vision_only = walk.worst_tilt(problem, Eigen::Vector3d::UnitZ());
+  const double after = walk.worst_tilt(with_gravity, result.up_world);
   EXPECT_GT(before, 0.004);              // the drift is there
   EXPECT_GT(vision_only, 0.8 * before);  // and vision alone keeps it
   EXPECT_LT(after, 0.3 * before) << before << " -> " << after;
   EXPECT_TRUE(vision.up_world.isZero());  // no gravity, no estimate
+}
+
+// A continued map: the walk's second half is another recording, whose accelerometer came up
+// with another bias. A bias per recording (BundleProblem::Gravity::bias) finds both; one bias
+// for all splits the difference and tilts both halves.
+TEST(Gravity, EachRecordingHasItsOwnAccelerometerBias) {
+  const DriftedWalk walk = drifted_walk(40);
+  const Eigen::Vector3d bias[2] = {{0.08, -0.06, 0.03}, {-0.06, 0.05, 0.06}};  // m/s^2
+  BundleProblem per_recording = walk.problem;
+  BundleProblem shared = walk.problem;
+  for (std::size_t i = 0; i < walk.truth.size(); ++i) {
+    BundleProblem::Gravity g = walk.at_rest(i, bias[i < walk.truth.size() / 2 ? 0 : 1]);
+    shared.gravity.push_back(g);
+    g.bias = i < walk.truth.size() / 2 ? 0 : 1;
+    per_recording.gravity.push_back(g);
+  }
+  const BundleResult one = bundle_adjust(shared, kK);
+  const BundleResult two = bundle_adjust(per_recording, kK);
+  ASSERT_EQ(two.accel_bias.size(), 2u);
+  for (std::size_t r = 0; r < 2; ++r)
+    EXPECT_LT((two.accel_bias[r] - bias[r]).norm(), 0.03) << two.accel_bias[r].transpose();
+  const double tilt_one = walk.worst_tilt(shared, one.up_world);
+  const double tilt_two = walk.worst_tilt(per_recording, two.up_world);
+  EXPECT_LT(tilt_two, 0.5 * tilt_one) << tilt_one << " -> " << tilt_two;
+  EXPECT_LT(two.gravity_rms, 0.5 * one.gravity_rms) << one.gravity_rms << " -> " << two.gravity_rms;
 }
 
 }  // namespace
