@@ -25,7 +25,7 @@ struct GravityWindow {
 struct GyroLink {
   KeyframeId recording;  // as in GravityWindow
   KeyframeId next;
-  SO3 cam_from_next;  // integrated at zero bias
+  SO3 cam_from_next;                                        // integrated at zero bias
   Eigen::Matrix3d bias_jacobian = Eigen::Matrix3d::Zero();  // of its log, rad per rad/s
   double dt = 0.0;                                          // seconds integrated
 };

@@ -418,8 +418,7 @@ void Loader::read_gyro_links() {
     g.recording = KeyframeId(t.id(1, "recording", row, false));
     if (g.recording > id) t.fail("recording", row, "a recording that starts after its keyframe");
     g.next = KeyframeId(t.id(2, "next_id", row, false));
-    if (g.next == id || !keyframes_.count(g.next))
-      t.fail("next_id", row, "no such other keyframe");
+    if (g.next == id || !keyframes_.count(g.next)) t.fail("next_id", row, "no such other keyframe");
     const Eigen::Quaterniond q(s.column_real(6), s.column_real(3), s.column_real(4),
                                s.column_real(5));
     if (!(std::abs(q.norm() - 1.0) < 1e-9)) t.fail("qw", row, "not a unit quaternion");

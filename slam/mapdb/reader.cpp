@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <set>
+#include <utility>
 
 #include "slam/core/error.hpp"
 #include "slam/mapdb/schema.hpp"
@@ -155,7 +156,11 @@ std::vector<std::string> integrity_problems(const fs::path& path) {
       Statement s(db, pragma, table.empty() ? "integrity_check" : table);
       while (s.next()) {
         const std::string line = s.column_text(0);
-        if (line != "ok") problems.push_back(where + "integrity_check: " + line);
+        if (line == "ok") continue;
+        std::string problem = where;
+        problem += "integrity_check: ";
+        problem += line;
+        problems.push_back(std::move(problem));
       }
     } catch (const Error& e) {
       problems.push_back(where + "integrity_check: " + e.message());

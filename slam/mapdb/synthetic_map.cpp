@@ -138,8 +138,8 @@ void add_imu(map::Map& m, const std::vector<KeyframeId>& ids, Rng& rng) {
     const KeyframeId recording = ids[i < second ? 0 : second];
     map::Keyframe& kf = *m.keyframe(ids[i]);
     if (i % 7 != 3)
-      kf.gravity = map::GravityWindow{recording, Eigen::Vector3d(0.0, -9.81, 0.0) + noise(0.5),
-                                      noise(0.3)};
+      kf.gravity =
+          map::GravityWindow{recording, Eigen::Vector3d(0.0, -9.81, 0.0) + noise(0.5), noise(0.3)};
     if (i + 1 == ids.size() || i + 1 == second) continue;  // no link across recordings
     map::GyroLink link{recording, ids[i + 1], SO3::exp(noise(0.1)), {}, 0.1};
     link.bias_jacobian = -0.1 * Eigen::Matrix3d::Identity() + SO3::hat(noise(0.005));
@@ -180,8 +180,8 @@ map::Map make_synthetic_map(const SyntheticMapOptions& o,
   // Loop l ties the keyframes at positions 1 + 2 l and n - 1 - 3 l (the first one stays out;
   // loops that do not fit a small map are left out).
   for (int l = 0; l < o.loop_edges; ++l) {
-    const auto a = static_cast<std::size_t>(1 + 2 * l);
-    const auto back = static_cast<std::size_t>(3 * l + 1);
+    const std::size_t a = 1 + 2 * static_cast<std::size_t>(l);
+    const std::size_t back = 3 * static_cast<std::size_t>(l) + 1;
     if (a >= ids.size() || back >= ids.size() || a == ids.size() - back) continue;
     const std::size_t b = ids.size() - back;
     m.keyframe(ids[a])->loop_edges.insert(ids[b]);

@@ -239,8 +239,7 @@ void add_gyro(const BundleProblem& problem, std::vector<double>& pose_params, Ex
   }
   for (double* bias : starts)
     ceres_problem.AddResidualBlock(
-        new ceres::NormalPrior(Eigen::Matrix3d::Identity() / m.bias_sigma,
-                               Eigen::Vector3d::Zero()),
+        new ceres::NormalPrior(Eigen::Matrix3d::Identity() / m.bias_sigma, Eigen::Vector3d::Zero()),
         nullptr, bias);
 }
 

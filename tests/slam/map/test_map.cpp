@@ -94,8 +94,8 @@ TEST(Map, ErasingAKeyframeChainsTheGyroLinkThroughIt) {
   };
   EXPECT_LT(angular_distance(corrected(*ac), corrected(links[0]) * corrected(links[1])), 1e-6);
   EXPECT_GT(angular_distance(ac->cam_from_next *
-                              SO3::exp((links[0].bias_jacobian + links[1].bias_jacobian) * bias),
-                          corrected(links[0]) * corrected(links[1])),
+                                 SO3::exp((links[0].bias_jacobian + links[1].bias_jacobian) * bias),
+                             corrected(links[0]) * corrected(links[1])),
             5e-5);
 
   // The last keyframe has no link of its own: the one that led to it goes with it.

@@ -108,8 +108,7 @@ inline std::string inertial_difference(const map::Keyframe& a, const map::Keyfra
   if (!a.gyro) return {};
   const map::GyroLink& p = *a.gyro;
   const map::GyroLink& q = *b.gyro;
-  if (p.recording != q.recording || p.next != q.next || !same_value(p.dt, q.dt))
-    return "gyro link";
+  if (p.recording != q.recording || p.next != q.next || !same_value(p.dt, q.dt)) return "gyro link";
   if (!same_value(Eigen::Vector4d(p.cam_from_next.quaternion().coeffs()),
                   Eigen::Vector4d(q.cam_from_next.quaternion().coeffs())))
     return "gyro link rotation";

@@ -52,9 +52,10 @@ std::string load_error(const fs::path& p) {
 }
 
 bool names_a_table(const std::string& message) {
-  for (const char* t : {"metadata", "cameras", "keyframes", "keyframe_features", "markers",
-                        "map_points", "observations", "covisibility", "loop_edges",
-                        "gravity_windows", "gyro_links", "erased_keyframes", "user_version", "application_id", "sqlite_master"}) {
+  for (const char* t :
+       {"metadata", "cameras", "keyframes", "keyframe_features", "markers", "map_points",
+        "observations", "covisibility", "loop_edges", "gravity_windows", "gyro_links",
+        "erased_keyframes", "user_version", "application_id", "sqlite_master"}) {
     if (message.find(t) != std::string::npos) return true;
   }
   return false;

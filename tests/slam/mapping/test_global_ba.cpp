@@ -120,8 +120,8 @@ TEST(GlobalBundleAdjustment, RecoversPerturbedPosesAndPoints) {
 
 // A continued map: keyframes 0-2 came from an earlier recording, 3-5 from this one, whose IMU
 // log covers all six timestamps (another recording's clock may well overlap this one's). Only
-// 3-5 may take gravity from this log, and the gyro only between 4 and 3, 5 and 4. The camera stands at each
-// keyframe's pose around its second: the accelerometer reads gravity, the gyro nothing.
+// 3-5 may take gravity from this log, and the gyro only between 4 and 3, 5 and 4. The camera stands
+// at each keyframe's pose around its second: the accelerometer reads gravity, the gyro nothing.
 TEST(GlobalBundleAdjustment, TheImuTiesOnlyTheKeyframesOfItsRecording) {
   const std::vector<SE3> truth = perturbed_map().truth;
   const Eigen::Vector3d up_world(0.0, -1.0, 0.0);
