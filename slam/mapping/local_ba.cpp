@@ -24,7 +24,7 @@ void LocalMapper::local_bundle_adjustment(KeyframeId current) {
     if (estimate) set_map_readout(m, shared_.readout);
     w = make_window(m, local);
   }
-  if (estimate) {
+  if (estimate && w.pose_ids.size() >= options_.readout_min_keyframes) {
     optim::BundleProblem::Readout& r = w.problem.readout;
     r.estimate = true;
     r.current = shared_.readout;
@@ -39,7 +39,7 @@ void LocalMapper::local_bundle_adjustment(KeyframeId current) {
   {
     std::lock_guard lock(shared_.mutex);
     apply_window(shared_.map, w, result);
-    if (estimate && !result.aborted)
+    if (w.problem.readout.estimate && !result.aborted)
       update_readout(w.problem.readout.current + result.readout_change);
   }
   std::lock_guard slock(state_mutex_);

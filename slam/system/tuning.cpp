@@ -57,6 +57,7 @@ constexpr std::array kTunables{
   Tunable{"mapping.readout_step", [](SystemOptions& o) -> Field { return &o.mapping.readout_step; }},
   Tunable{"mapping.readout_publish", [](SystemOptions& o) -> Field { return &o.mapping.readout_publish; }},
   Tunable{"mapping.readout_start", [](SystemOptions& o) -> Field { return &o.mapping.readout_start; }},
+  Tunable{"mapping.readout_min_keyframes", [](SystemOptions& o) -> Field { return &o.mapping.readout_min_keyframes; }},
   Tunable{"loop.enabled", [](SystemOptions& o) -> Field { return &o.loop.enabled; }},
   Tunable{"loop.min_consistency", [](SystemOptions& o) -> Field { return &o.loop.min_consistency; }},
   Tunable{"loop.min_inliers", [](SystemOptions& o) -> Field { return &o.loop.min_inliers; }},

@@ -170,12 +170,13 @@ TEST(SlamSystem, EstimatesTheRollingShutterReadoutWhenTheSettingsGiveNone) {
     double ate_m = 0.0;
     std::optional<double> summary_readout, saved_readout;
   };
-  auto run = [&](bool estimate) {
+  auto run = [&](bool estimate, std::size_t min_keyframes = 0) {
     SystemOptions options;
     options.tracking.wait_for_sink = true;
     options.detect_markers = false;
     options.mapping.estimate_readout = estimate;
     options.mapping.readout_start = 0.0;  // the estimator finds it from nothing
+    options.mapping.readout_min_keyframes = min_keyframes;
     System slam(settings, vocabulary(), options);
     for (std::size_t i = 0; i < sequence->size(); ++i) {
       const auto f = sequence->frame(i);
@@ -202,6 +203,11 @@ TEST(SlamSystem, EstimatesTheRollingShutterReadoutWhenTheSettingsGiveNone) {
   EXPECT_FALSE(without.summary_readout.has_value());
   EXPECT_FALSE(without.saved_readout.has_value());
   EXPECT_LT(with.ate_m, without.ate_m);
+  // Windows smaller than readout_min_keyframes leave the estimate where it started: the 37
+  // frames make fewer than 20 keyframes.
+  const Run held = run(true, 20);
+  ASSERT_TRUE(held.summary_readout.has_value());
+  EXPECT_EQ(*held.summary_readout, 0.0);
   std::cout << "readout estimated " << 1e3 * *with.summary_readout << " ms; ATE "
             << 1e3 * with.ate_m << " mm (without: " << 1e3 * without.ate_m << " mm)\n";
 }
