@@ -62,7 +62,7 @@ struct LocalMappingOptions {
   // is. On fr1/rpy with the ORB-SLAM3 TUM1 file (no Camera.readoutTime), paced, the first local
   // BAs of 2-4 keyframes took it from 16.7 to 4-7 ms on every run, far below where it settles
   // (19-26 ms), and the first fast turns were tracked while it climbed back: 10 gave ATE median
-  // 14.1 mm, max 17.7 over 35 runs against 16.3 / 25.8 over 47 without. But a global shutter
+  // 14.1 mm, max 17.7 over 35 runs against 15.5 / 25.8 over 47 without. But a global shutter
   // without the key (twin room) then keeps the start value longer: 5.9 -> 10.4 mm. So 0 by
   // default; 10 in the settings (`Coloc.mapping.readout_min_keyframes: 10`) for rolling-shutter
   // footage that turns fast from the start.
