@@ -144,8 +144,8 @@ class Map {
   // every observation must agree. Derived here, as the editing API maintains them: children
   // (from the parents) and covisible_ordered (from covisibility). Throws coloc::Error naming
   // the first relation that does not hold (ids at or above the issuers' next values, a side of
-  // an observation missing, an edge or parent to a missing keyframe, a spanning-tree cycle, an
-  // erased keyframe that is also present or chains to nothing).
+  // an observation missing, an edge, gyro link or parent to a missing keyframe, a spanning-tree
+  // cycle, an erased keyframe that is also present or chains to nothing).
   static Map restore(std::unordered_map<KeyframeId, Keyframe> keyframes,
                      std::unordered_map<MapPointId, MapPoint> points, MapBookkeeping bookkeeping);
 

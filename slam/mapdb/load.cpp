@@ -8,8 +8,10 @@
 #include <cmath>
 #include <exception>
 #include <optional>
+#include <string>
 #include <thread>
 #include <unordered_map>
+#include <utility>
 
 #include "slam/core/error.hpp"
 #include "slam/mapdb/codec.hpp"
@@ -94,6 +96,12 @@ class Loader {
   void read_observations();
   void read_covisibility();
   void read_loop_edges();
+  struct ImuRow {
+    map::Keyframe& keyframe;
+    KeyframeId recording;
+    std::string row;
+  };
+  ImuRow imu_row(TableReader& t);
   void read_gravity_windows();
   void read_gyro_links();
   void read_erased();
@@ -384,24 +392,32 @@ void Loader::read_loop_edges() {
   }
 }
 
+// Columns 0-1 of an IMU table: the keyframe the row belongs to, which must exist, and its
+// recording (the id of the recording's first keyframe), which cannot start after it.
+Loader::ImuRow Loader::imu_row(TableReader& t) {
+  const KeyframeId id(t.id(0, "keyframe_id", "?", false));
+  std::string row = row_of(id.value());
+  auto kf = keyframes_.find(id);
+  if (kf == keyframes_.end()) t.fail("keyframe_id", row, "no such keyframe");
+  const KeyframeId recording(t.id(1, "recording", row, false));
+  if (recording > id) t.fail("recording", row, "a recording that starts after its keyframe");
+  return {kf->second, recording, std::move(row)};
+}
+
 // Schema version 3 on: the IMU's measurements a recording stored with its keyframes.
 void Loader::read_gravity_windows() {
   if (!has_table(file_.schema_version(), "gravity_windows")) return;
   TableReader t(file_, "gravity_windows");
   while (t.next()) {
     Statement& s = t.row();
-    const KeyframeId id(t.id(0, "keyframe_id", "?", false));
-    const std::string row = row_of(id.value());
-    auto kf = keyframes_.find(id);
-    if (kf == keyframes_.end()) t.fail("keyframe_id", row, "no such keyframe");
+    const ImuRow r = imu_row(t);
     map::GravityWindow g;
-    g.recording = KeyframeId(t.id(1, "recording", row, false));
-    if (g.recording > id) t.fail("recording", row, "a recording that starts after its keyframe");
+    g.recording = r.recording;
     g.specific_force_cam = {s.column_real(2), s.column_real(3), s.column_real(4)};
     g.accel_world = {s.column_real(5), s.column_real(6), s.column_real(7)};
     if (!g.specific_force_cam.allFinite() || !g.accel_world.allFinite())
-      t.fail("fx", row, "not a finite measurement");
-    kf->second.gravity = g;
+      t.fail("fx", r.row, "not a finite measurement");
+    r.keyframe.gravity = g;
   }
 }
 
@@ -410,15 +426,13 @@ void Loader::read_gyro_links() {
   TableReader t(file_, "gyro_links");
   while (t.next()) {
     Statement& s = t.row();
-    const KeyframeId id(t.id(0, "keyframe_id", "?", false));
-    const std::string row = row_of(id.value());
-    auto kf = keyframes_.find(id);
-    if (kf == keyframes_.end()) t.fail("keyframe_id", row, "no such keyframe");
+    const ImuRow r = imu_row(t);
+    const std::string& row = r.row;
     map::GyroLink g;
-    g.recording = KeyframeId(t.id(1, "recording", row, false));
-    if (g.recording > id) t.fail("recording", row, "a recording that starts after its keyframe");
+    g.recording = r.recording;
     g.next = KeyframeId(t.id(2, "next_id", row, false));
-    if (g.next == id || !keyframes_.count(g.next)) t.fail("next_id", row, "no such other keyframe");
+    if (g.next == r.keyframe.id || !keyframes_.count(g.next))
+      t.fail("next_id", row, "no such other keyframe");
     const Eigen::Quaterniond q(s.column_real(6), s.column_real(3), s.column_real(4),
                                s.column_real(5));
     if (!(std::abs(q.norm() - 1.0) < 1e-9)) t.fail("qw", row, "not a unit quaternion");
@@ -430,7 +444,7 @@ void Loader::read_gyro_links() {
     g.dt = s.column_real(8);
     if (!(g.dt > 0.0) || !g.bias_jacobian.allFinite())
       t.fail("dt", row, "not a positive interval with a finite bias Jacobian");
-    kf->second.gyro = g;
+    r.keyframe.gyro = g;
   }
 }
 
