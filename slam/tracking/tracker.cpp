@@ -512,8 +512,9 @@ bool Tracker::need_keyframe() const {
   const std::uint64_t since_kf =
       last_keyframe_frame_.valid() ? current_.id.value() - last_keyframe_frame_.value() : ~0ULL;
   const bool c1a = since_kf >= max_frames;
-  const bool c1b =
-      since_kf >= static_cast<std::uint64_t>(options_.min_frames_between_keyframes) && mapping_idle;
+  const bool queue_free = options_.keyframe_behind_busy_mapper && sink_->queued() == 0;
+  const bool c1b = since_kf >= static_cast<std::uint64_t>(options_.min_frames_between_keyframes) &&
+                   (mapping_idle || queue_free);
   const bool c1c = matches_inliers_ < ref_matches * 0.25 || need_close;
   // The reference is a keyframe this tracker made from a far weaker frame (blurred, or at the
   // edge of the map): TrackingOptions::weak_reference_ratio.
@@ -523,7 +524,8 @@ bool Tracker::need_keyframe() const {
   const bool c2 = (matches_inliers_ < ref_matches * ref_ratio || need_close || weak_reference) &&
                   matches_inliers_ > 15;
   if (!((c1a || c1b || c1c) && c2)) return false;
-  if (mapping_idle) return true;
+  // Behind a busy mapper with an empty queue (keyframe_behind_busy_mapper): no interruption.
+  if (mapping_idle || queue_free) return true;
   sink_->interrupt();
   return sink_->queued() < 3;
 }

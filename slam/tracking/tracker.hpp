@@ -49,6 +49,16 @@ struct TrackingOptions {
   // frame is asked again, at most keyframe_defer_max times in a row. 0 = never defer.
   double keyframe_defer_ratio = 0.5;
   int keyframe_defer_max = 2;
+  // ORB-SLAM's rule takes a keyframe the frame needs (too few of the reference's points tracked)
+  // early only while local mapping is idle, so live runs make fewer keyframes than sequential
+  // ones (7-Scenes: 64-74 paced, 117 sequential). With this, such a keyframe also goes into an
+  // empty queue behind a busy mapper, without interrupting its BA. Paced, interleaved runs
+  // (2026-11-27 10:30-10:55), ATE as tracked in mm, median (std): 7-Scenes 34.20 (0.90) ->
+  // 33.29 (0.61) over 6 runs and 34.59 (0.78) -> 33.66 (0.55) over 10, 64-74 -> 83-91
+  // keyframes; fr1/rpy with the ORB-SLAM3 file 17.89 (10.62) -> 15.04 (1.31) over 8; but
+  // fr1/rpy with our file 13.70 (0.88) -> 14.96 (1.60) over 16; fr1/xyz and the twin room
+  // unchanged. A trade, so off by default. Sequential runs never meet a busy mapper.
+  bool keyframe_behind_busy_mapper = false;
   // A keyframe made from a frame that tracked poorly (blurred after keyframe_defer_max
   // deferrals, or a view the map barely covered) is a poor reference: it holds few points seen
   // twice, so ORB-SLAM's ratio test (c2) stays false while frames track more than 0.75 x that

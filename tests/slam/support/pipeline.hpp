@@ -31,8 +31,8 @@ inline TrackerInputs tracker_inputs(const settings::Settings& s) {
   return in;
 }
 
-// Records the keyframe ids pushed to it and counts the waits; `accept` says what accepting()
-// answers.
+// Records the keyframe ids pushed to it and counts the waits and interrupts; `accept` says what
+// accepting() answers, `busy` what idle() does not.
 class RecordingSink final : public map::KeyframeSink {
  public:
   bool push(map::KeyframeMessage message) override {
@@ -40,17 +40,19 @@ class RecordingSink final : public map::KeyframeSink {
     ids_.push_back(message.id);
     return true;
   }
-  bool idle() const override { return true; }
+  bool idle() const override { return !busy; }
   std::size_t queued() const override { return 0; }
   bool accepting() const override { return accept; }
-  void interrupt() override {}
+  void interrupt() override { ++interrupts; }
   void wait_idle() override { ++waits; }
   std::vector<KeyframeId> ids() const {
     std::lock_guard lock(mutex_);
     return ids_;
   }
   bool accept = true;
-  std::atomic<int> waits{0};  // wait_idle() calls
+  bool busy = false;               // what idle() denies: a mapper always at work, its queue empty
+  std::atomic<int> waits{0};       // wait_idle() calls
+  std::atomic<int> interrupts{0};  // interrupt() calls
 
  private:
   mutable std::mutex mutex_;

@@ -4,6 +4,7 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+#include <utility>
 
 #include "slam/core/error.hpp"
 #include "slam/eval/trajectory_error.hpp"
@@ -81,6 +82,31 @@ TEST(Tracker, WaitsForTheSinkWhileTheReadoutSettles) {
     ASSERT_GT(sink.ids().size(), 2u);  // more keyframes than waits
     EXPECT_EQ(sink.waits.load(), estimating ? 2 : 0) << "estimating " << estimating;
   }
+}
+
+// Behind a mapper that is always busy, ORB-SLAM's rule makes a keyframe only when tracking is
+// weak or long after the last one, and interrupts the mapper's BA for it; with
+// keyframe_behind_busy_mapper a needed keyframe joins the empty queue without interrupting.
+TEST(Tracker, QueuesANeededKeyframeBehindABusyMapperWhenAsked) {
+  const SyntheticRgbdScene scene;
+  auto run = [&](bool behind) {
+    TrackingOptions options;
+    options.keyframe_behind_busy_mapper = behind;
+    map::SharedMap shared;
+    RecordingSink sink;
+    sink.busy = true;
+    Tracker tracker = make_tracker(shared, &sink, scene, options);
+    for (int i = 0; i < scene.size(); ++i) {
+      const SyntheticFrame f = scene.frame(i);
+      EXPECT_EQ(tracker.track(f.color, f.depth, f.timestamp).state, TrackingState::kOk);
+    }
+    return std::pair(sink.ids().size(), sink.interrupts.load());
+  };
+  const auto [keyframes_rule, interrupts_rule] = run(false);
+  const auto [keyframes_behind, interrupts_behind] = run(true);
+  EXPECT_GT(keyframes_behind, keyframes_rule);
+  EXPECT_GT(interrupts_rule, 0);
+  EXPECT_EQ(interrupts_behind, 0);
 }
 
 // The frames of `scene` tracked with a sink, frame `blurred` smeared by a Gaussian of `sigma`
