@@ -512,6 +512,7 @@ bool Tracker::need_keyframe() const {
   const std::uint64_t since_kf =
       last_keyframe_frame_.valid() ? current_.id.value() - last_keyframe_frame_.value() : ~0ULL;
   const bool c1a = since_kf >= max_frames;
+  // keyframe_behind_busy_mapper: an empty queue counts as idle here; the BA is interrupted below.
   const bool queue_free = options_.keyframe_behind_busy_mapper && sink_->queued() == 0;
   const bool c1b = since_kf >= static_cast<std::uint64_t>(options_.min_frames_between_keyframes) &&
                    (mapping_idle || queue_free);
@@ -524,8 +525,7 @@ bool Tracker::need_keyframe() const {
   const bool c2 = (matches_inliers_ < ref_matches * ref_ratio || need_close || weak_reference) &&
                   matches_inliers_ > 15;
   if (!((c1a || c1b || c1c) && c2)) return false;
-  // Behind a busy mapper with an empty queue (keyframe_behind_busy_mapper): no interruption.
-  if (mapping_idle || queue_free) return true;
+  if (mapping_idle) return true;
   sink_->interrupt();
   return sink_->queued() < 3;
 }

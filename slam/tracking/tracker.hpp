@@ -51,13 +51,15 @@ struct TrackingOptions {
   int keyframe_defer_max = 2;
   // ORB-SLAM's rule takes a keyframe the frame needs (too few of the reference's points tracked)
   // early only while local mapping is idle, so live runs make fewer keyframes than sequential
-  // ones (7-Scenes: 64-74 paced, 117 sequential). With this, such a keyframe also goes into an
-  // empty queue behind a busy mapper, without interrupting its BA. Paced, interleaved runs
-  // (2026-11-27 10:30-10:55), ATE as tracked in mm, median (std): 7-Scenes 34.20 (0.90) ->
-  // 33.29 (0.61) over 6 runs and 34.59 (0.78) -> 33.66 (0.55) over 10, 64-74 -> 83-91
-  // keyframes; fr1/rpy with the ORB-SLAM3 file 17.89 (10.62) -> 15.04 (1.31) over 8; but
-  // fr1/rpy with our file 13.70 (0.88) -> 14.96 (1.60) over 16; fr1/xyz and the twin room
-  // unchanged. A trade, so off by default. Sequential runs never meet a busy mapper.
+  // ones (7-Scenes: 64-79 paced, 117 sequential). With this, an empty queue counts as idle: the
+  // keyframe goes in and interrupts the mapper's BA, as ORB-SLAM does for the keyframes it takes
+  // while the mapper is busy. Paced, interleaved runs (2026-11-27 10:57-11:05), ATE as tracked
+  // in mm, median (std): 7-Scenes 34.34 (0.87) -> 33.71 (0.88) over 6, but with 143-165
+  // keyframes instead of 64-79; fr1/rpy, our file, 13.98 (0.61) -> 13.52 (0.89) over 8; fr1/rpy,
+  // the ORB-SLAM3 file, 21.57 (9.15) -> 13.30 (8.49) over 8. Queued without interrupting, 7-Scenes
+  // gained as much but fr1/rpy with our file lost 1.3 mm (16 runs). Off by default until it has
+  // been measured on the twins and over more runs: it doubles the keyframes of a slow walk.
+  // Sequential runs never meet a busy mapper.
   bool keyframe_behind_busy_mapper = false;
   // A keyframe made from a frame that tracked poorly (blurred after keyframe_defer_max
   // deferrals, or a view the map barely covered) is a poor reference: it holds few points seen

@@ -84,10 +84,10 @@ TEST(Tracker, WaitsForTheSinkWhileTheReadoutSettles) {
   }
 }
 
-// Behind a mapper that is always busy, ORB-SLAM's rule makes a keyframe only when tracking is
-// weak or long after the last one, and interrupts the mapper's BA for it; with
-// keyframe_behind_busy_mapper a needed keyframe joins the empty queue without interrupting.
-TEST(Tracker, QueuesANeededKeyframeBehindABusyMapperWhenAsked) {
+// Behind a mapper that is always busy (its queue empty), ORB-SLAM's rule makes a keyframe only
+// when tracking is weak or long after the last one; with keyframe_behind_busy_mapper, whenever
+// the frame needs one. Either way each interrupts the mapper's BA.
+TEST(Tracker, TakesANeededKeyframeBehindABusyMapperWhenAsked) {
   const SyntheticRgbdScene scene;
   auto run = [&](bool behind) {
     TrackingOptions options;
@@ -105,8 +105,9 @@ TEST(Tracker, QueuesANeededKeyframeBehindABusyMapperWhenAsked) {
   const auto [keyframes_rule, interrupts_rule] = run(false);
   const auto [keyframes_behind, interrupts_behind] = run(true);
   EXPECT_GT(keyframes_behind, keyframes_rule);
-  EXPECT_GT(interrupts_rule, 0);
-  EXPECT_EQ(interrupts_behind, 0);
+  // Every keyframe after the initial one asked for an interruption (a deferred one asks again).
+  EXPECT_GE(interrupts_rule, static_cast<int>(keyframes_rule) - 1);
+  EXPECT_GE(interrupts_behind, static_cast<int>(keyframes_behind) - 1);
 }
 
 // The frames of `scene` tracked with a sink, frame `blurred` smeared by a Gaussian of `sigma`
