@@ -58,8 +58,8 @@ struct LocalMappingOptions {
   // a global-shutter twin room without the key 3.7-4.0 -> 5.5 mm (its first second is
   // compensated for a shear it does not have). A map that is continued starts from its own.
   double readout_start = 0.5;
-  // Windows of fewer keyframes (the current one and its covisible ones) leave the estimate as it
-  // is. On fr1/rpy with the ORB-SLAM3 TUM1 file (no Camera.readoutTime), paced, the first local
+  // Windows of fewer keyframes (the current one, its covisible ones and those held fixed at the
+  // window's edge) leave the estimate as it is. On fr1/rpy with the ORB-SLAM3 TUM1 file (no Camera.readoutTime), paced, the first local
   // BAs of 2-4 keyframes took it from 16.7 to 4-7 ms on every run, far below where it settles
   // (19-26 ms), and the first fast turns were tracked while it climbed back: 10 gave ATE median
   // 14.1 mm, max 17.7 over 35 runs against 15.5 / 25.8 over 47 without. But a global shutter
