@@ -59,13 +59,14 @@ struct LocalMappingOptions {
   // compensated for a shear it does not have). A map that is continued starts from its own.
   double readout_start = 0.5;
   // Windows of fewer keyframes (the current one, its covisible ones and those held fixed at the
-  // window's edge) leave the estimate as it is. On fr1/rpy with the ORB-SLAM3 TUM1 file (no Camera.readoutTime), paced, the first local
-  // BAs of 2-4 keyframes took it from 16.7 to 4-7 ms on every run, far below where it settles
-  // (19-26 ms), and the first fast turns were tracked while it climbed back: 10 gave ATE median
-  // 14.1 mm, max 17.7 over 35 runs against 15.5 / 25.8 over 47 without. But a global shutter
-  // without the key (twin room) then keeps the start value longer: 5.9 -> 10.4 mm. So 0 by
-  // default; 10 in the settings (`Coloc.mapping.readout_min_keyframes: 10`) for rolling-shutter
-  // footage that turns fast from the start.
+  // window's edge) leave the estimate as it is. On fr1/rpy with the ORB-SLAM3 TUM1 file (no
+  // Camera.readoutTime), paced, the first local BAs of 2-4 keyframes took it from 16.7 to 4-7 ms on
+  // every run, far below where it settles (19-26 ms), and the first fast turns were tracked while
+  // it climbed back: 10 gave ATE median 14.1 mm, max 17.7 over 35 runs against 15.5 / 25.8 over 47
+  // without. But a global shutter without the key (twin room) then keeps the start value
+  // longer: 5.9 -> 10.4 mm. So 0 by default; 10 in the settings
+  // (`Coloc.mapping.readout_min_keyframes: 10`) for rolling-shutter footage that turns fast from
+  // the start.
   std::size_t readout_min_keyframes = 0;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
