@@ -57,9 +57,11 @@ struct TrackingOptions {
   // in mm, median (std): 7-Scenes 34.34 (0.87) -> 33.71 (0.88) over 6, but with 143-165
   // keyframes instead of 64-79; fr1/rpy, our file, 13.98 (0.61) -> 13.52 (0.89) over 8; fr1/rpy,
   // the ORB-SLAM3 file, 21.57 (9.15) -> 13.30 (8.49) over 8. Queued without interrupting, 7-Scenes
-  // gained as much but fr1/rpy with our file lost 1.3 mm (16 runs). Off by default until it has
-  // been measured on the twins and over more runs: it doubles the keyframes of a slow walk.
-  // Sequential runs never meet a busy mapper.
+  // gained as much but fr1/rpy with our file lost 1.3 mm (16 runs). Off by default: 7-Scenes
+  // again (8 runs) 34.54 (0.88) -> 33.77 (1.05) keeps the gain but not a lower spread, the twins
+  // (one paced run each) lose as tracked (room 3.41 -> 3.59, building seed 1 9.75 -> 12.95; 8.20
+  // -> 6.51 after the global BA), and a slow walk gets twice the keyframes. Sequential runs never
+  // meet a busy mapper.
   bool keyframe_behind_busy_mapper = false;
   // A keyframe made from a frame that tracked poorly (blurred after keyframe_defer_max
   // deferrals, or a view the map barely covered) is a poor reference: it holds few points seen
