@@ -102,6 +102,9 @@ class Loader {
     std::string row;
   };
   ImuRow imu_row(TableReader& t);
+  // Every row of an IMU table (none before schema 3): f(table, row) after imu_row's checks.
+  template <typename F>
+  void read_imu_table(const char* table, F&& f);
   void read_gravity_windows();
   void read_gyro_links();
   void read_erased();
@@ -405,12 +408,17 @@ Loader::ImuRow Loader::imu_row(TableReader& t) {
 }
 
 // Schema version 3 on: the IMU's measurements a recording stored with its keyframes.
+template <typename F>
+void Loader::read_imu_table(const char* table, F&& f) {
+  if (!has_table(file_.schema_version(), table)) return;
+  TableReader t(file_, table);
+  while (t.next())
+    f(t, imu_row(t));
+}
+
 void Loader::read_gravity_windows() {
-  if (!has_table(file_.schema_version(), "gravity_windows")) return;
-  TableReader t(file_, "gravity_windows");
-  while (t.next()) {
+  read_imu_table("gravity_windows", [](TableReader& t, const ImuRow& r) {
     Statement& s = t.row();
-    const ImuRow r = imu_row(t);
     map::GravityWindow g;
     g.recording = r.recording;
     g.specific_force_cam = {s.column_real(2), s.column_real(3), s.column_real(4)};
@@ -418,15 +426,12 @@ void Loader::read_gravity_windows() {
     if (!g.specific_force_cam.allFinite() || !g.accel_world.allFinite())
       t.fail("fx", r.row, "not a finite measurement");
     r.keyframe.gravity = g;
-  }
+  });
 }
 
 void Loader::read_gyro_links() {
-  if (!has_table(file_.schema_version(), "gyro_links")) return;
-  TableReader t(file_, "gyro_links");
-  while (t.next()) {
+  read_imu_table("gyro_links", [this](TableReader& t, const ImuRow& r) {
     Statement& s = t.row();
-    const ImuRow r = imu_row(t);
     const std::string& row = r.row;
     map::GyroLink g;
     g.recording = r.recording;
@@ -445,7 +450,7 @@ void Loader::read_gyro_links() {
     if (!(g.dt > 0.0) || !g.bias_jacobian.allFinite())
       t.fail("dt", row, "not a positive interval with a finite bias Jacobian");
     r.keyframe.gyro = g;
-  }
+  });
 }
 
 void Loader::check_parents() {
