@@ -164,6 +164,13 @@ void Frame::set_shutter_readout(double readout) {
   shutter_readout = readout;
 }
 
+void Frame::set_shutter_rate(const Eigen::Vector3d& omega_cam) {
+  if (shutter_rows <= 0) return;
+  compensate(shutter_rate, -shutter_readout);  // undone exactly: each row keeps its time
+  shutter_rate = omega_cam;
+  compensate(omega_cam, shutter_readout);
+}
+
 Eigen::Vector3d Frame::shutter_shear(std::size_t i) const {
   if (shutter_rows <= 0) return Eigen::Vector3d::Zero();
   return shutter_rate * row_time(features.keypoints[i].y, {1.0, shutter_rows});

@@ -110,6 +110,8 @@ class Frame {
   // Compensates the keypoints again for another readout time, with the recorded rate (a
   // readout estimated online has changed). Nothing moves without a recorded rate.
   void set_shutter_readout(double readout);
+  // Compensates the keypoints again for another rate at the same readout.
+  void set_shutter_rate(const Eigen::Vector3d& omega_cam);
   // How keypoint i's observation moves per second of readout change (optim::shutter_shifted).
   Eigen::Vector3d shutter_shear(std::size_t i) const;
 

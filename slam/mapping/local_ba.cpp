@@ -4,9 +4,9 @@
 #include <cmath>
 
 #include "slam/core/timing.hpp"
+#include "slam/map/shutter.hpp"
 #include "slam/mapping/ba_window.hpp"
 #include "slam/mapping/local_mapper.hpp"
-#include "slam/mapping/readout.hpp"
 
 namespace coloc::slam::mapping {
 
@@ -21,7 +21,7 @@ void LocalMapper::local_bundle_adjustment(KeyframeId current) {
     for (KeyframeId k : m.covisible(current))
       local.push_back(k);
     // A keyframe tracked just before the readout last moved still has the old compensation.
-    if (estimate) set_map_readout(m, shared_.readout);
+    if (estimate) map::set_map_readout(m, shared_.readout);
     w = make_window(m, local);
   }
   if (estimate && w.pose_ids.size() >= options_.readout_min_keyframes) {
@@ -54,7 +54,7 @@ void LocalMapper::update_readout(double estimate) {
   // Every keyframe is compensated again (a turn of each keypoint's bearing: about 0.1 ms per
   // keyframe, rare once the estimate has settled), so that they all match the new readout.
   shared_.readout = estimate;
-  set_map_readout(shared_.map, estimate);
+  map::set_map_readout(shared_.map, estimate);
   spdlog::debug("local mapping: rolling-shutter readout estimated {:.2f} ms", 1e3 * estimate);
 }
 

@@ -230,6 +230,13 @@ class Tracker {
   // The last keyframe this tracker made, and the inliers of the frame it was made from.
   KeyframeId last_keyframe_;
   int last_keyframe_inliers_ = 0;
+  // The map's first keyframe until the next frame gives it a rotation rate (it had no tracked
+  // frame before it; refine_rolling_shutter).
+  KeyframeId keyframe_without_rate_;
+  // The rotation rate between the last tracked frame and this one (rad/s, camera frame; zero
+  // when this frame has none): what a keyframe made from it records while the readout is
+  // estimated (add_current_keyframe).
+  Eigen::Vector3d pose_rate_ = Eigen::Vector3d::Zero();
   // Camera centre and time of the last tracked frame (the relocalization gate).
   Eigen::Vector3d last_tracked_centre_ = Eigen::Vector3d::Zero();
   std::optional<double> last_tracked_time_;

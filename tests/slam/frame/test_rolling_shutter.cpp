@@ -2,6 +2,7 @@
 // at its own time) are moved to where a global-shutter camera at the middle row's time sees them.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "slam/core/so3.hpp"
@@ -117,6 +118,36 @@ TEST(RollingShutter, FrameKeepsVirtualRightCoordinatesAndGridConsistent) {
   }
   // A turn about y moves points sideways, more the further they are from the middle row.
   EXPECT_GT(std::abs(frame.features.keypoints[0].ux - f.keypoints[0].ux), 1.0);
+}
+
+TEST(RollingShutter, FrameTakesAnotherRateAsIfCompensatedWithItAlone) {
+  auto g = std::make_shared<FrameGeometry>(*test_support::test_geometry());
+  features::OrbFeatures f;
+  for (int i = 0; i < 40; ++i) {
+    features::Keypoint kp;
+    kp.x = kp.ux = 60.0f + 13.0f * static_cast<float>(i);
+    kp.y = kp.uy = 10.0f + 11.5f * static_cast<float>(i);
+    f.keypoints.push_back(kp);
+    f.descriptors.push_back({});
+  }
+  const cv::Mat depth(480, 640, CV_32FC1, cv::Scalar(2.0f));
+  const Eigen::Vector3d refined(0.4, 2.5, -0.3), from_poses(-0.2, 1.8, 0.5);
+  Frame swapped(FrameId(1), 0.0, f, depth, g), direct(FrameId(2), 0.0, f, depth, g);
+  swapped.compensate_rolling_shutter(refined, 480, 0.02);
+  swapped.set_shutter_rate(from_poses);
+  direct.compensate_rolling_shutter(from_poses, 480, 0.02);
+  EXPECT_EQ(swapped.shutter_rate, from_poses);
+  EXPECT_EQ(swapped.shutter_readout, 0.02);
+  double moved = 0.0;
+  for (std::size_t i = 0; i < swapped.size(); ++i) {
+    const auto& a = swapped.features.keypoints[i];
+    const auto& b = direct.features.keypoints[i];
+    EXPECT_NEAR(a.ux, b.ux, 1e-3) << i;
+    EXPECT_NEAR(a.uy, b.uy, 1e-3) << i;
+    EXPECT_NEAR(swapped.u_right[i], a.ux - g->bf / 2.0, 1e-3);
+    moved = std::max(moved, double{std::abs(a.ux - f.keypoints[i].ux)});
+  }
+  EXPECT_GT(moved, 3.0);  // the comparison is not between two uncompensated frames
 }
 
 }  // namespace

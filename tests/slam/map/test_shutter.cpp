@@ -1,18 +1,21 @@
-// The rolling-shutter readout estimated online changes the map in place: keyframes are
-// compensated again and each point turns with its reference keyframe's keypoint.
+// Rolling-shutter compensation changed in keyframes already in the map: keyframes are
+// compensated again (a new readout, or a first rate) and each point turns with its reference
+// keyframe's keypoint.
 #include <gtest/gtest.h>
 
+#include <map>
+
 #include "slam/frame/rolling_shutter.hpp"
-#include "slam/mapping/readout.hpp"
+#include "slam/map/shutter.hpp"
 #include "tests/slam/support/slam_test_support.hpp"
 
-namespace coloc::slam::mapping {
+namespace coloc::slam::map {
 namespace {
 
 // A keyframe whose keypoints spread over the rows (the middle row does not move), turning at
 // `rate` while its rows were read, compensated so far with a readout of 0; a point per keypoint.
-KeyframeId add_turning_keyframe(map::Map& m, const Eigen::Vector3d& rate, double x) {
-  map::Keyframe kf = test_support::row_keyframe(m, 12, {x, 0.0, 0.0});
+KeyframeId add_turning_keyframe(Map& m, const Eigen::Vector3d& rate, double x) {
+  Keyframe kf = test_support::row_keyframe(m, 12, {x, 0.0, 0.0});
   for (std::size_t i = 0; i < kf.frame.size(); ++i) {
     auto& kp = kf.frame.features.keypoints[i];
     kp.y = kp.uy = static_cast<float>(20 + 40 * i);
@@ -24,8 +27,8 @@ KeyframeId add_turning_keyframe(map::Map& m, const Eigen::Vector3d& rate, double
   return id;
 }
 
-TEST(Readout, PointsFollowTheirReferenceKeyframesKeypoints) {
-  map::Map m;
+TEST(MapShutter, PointsFollowTheirReferenceKeyframesKeypoints) {
+  Map m;
   const Eigen::Vector3d rate(0.7, 2.0, -0.4);
   const KeyframeId turning = add_turning_keyframe(m, rate, 0.0);
   const KeyframeId still = add_turning_keyframe(m, Eigen::Vector3d::Zero(), 0.5);
@@ -66,5 +69,46 @@ TEST(Readout, PointsFollowTheirReferenceKeyframesKeypoints) {
     EXPECT_LT((p.position - positions[id]).norm(), 1e-9);
 }
 
+// The first keyframe of a map is made before any rate is known; the frame after it gives one.
+TEST(MapShutter, AKeyframeWithoutRateTakesOneAndItsPointsFollow) {
+  Map m;
+  const KeyframeId first = add_turning_keyframe(m, Eigen::Vector3d::Zero(), 0.0);
+  const KeyframeId other = add_turning_keyframe(m, Eigen::Vector3d(0.0, 1.0, 0.0), 0.5);
+  const features::OrbFeatures before = m.keyframe(first)->frame.features;
+  std::map<MapPointId, Eigen::Vector3d> positions;
+  for (const auto& [id, p] : m.points())
+    positions[id] = p.position;
+
+  const Eigen::Vector3d rate(0.3, -1.5, 0.2);
+  set_keyframe_shutter_rate(m, first, rate, 480, 0.02);
+  const frame::Frame& f = m.keyframe(first)->frame;
+  EXPECT_EQ(f.shutter_rate, rate);
+  EXPECT_EQ(f.shutter_readout, 0.02);
+  features::OrbFeatures expected = before;
+  const auto& g = f.geometry();
+  frame::compensate_rolling_shutter(expected, {0.02, 480}, rate, g.fx, g.fy, g.cx, g.cy);
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    EXPECT_NEAR(f.features.keypoints[i].ux, expected.keypoints[i].ux, 1e-3) << i;
+    EXPECT_NEAR(f.features.keypoints[i].uy, expected.keypoints[i].uy, 1e-3) << i;
+  }
+  for (const auto& [id, p] : m.points()) {
+    const frame::Frame& ref = m.keyframe(p.reference)->frame;
+    const std::uint32_t i = p.observations.at(p.reference);
+    const Eigen::Vector3d pc = ref.cam_from_world * p.position;
+    EXPECT_NEAR(pc.z(), ref.depth[i], 1e-6);
+    EXPECT_LT((ref.geometry().project(pc) - ref.pixel(i)).norm(), 1e-3);
+    if (p.reference == other) {
+      EXPECT_EQ(p.position, positions[id]);  // another keyframe's points stay
+    } else {
+      EXPECT_GT((p.position - positions[id]).norm(), 1e-4);
+    }
+  }
+  // Once it has a rate, it keeps it: this is not how a rate is changed.
+  const features::OrbFeatures compensated = f.features;
+  set_keyframe_shutter_rate(m, first, Eigen::Vector3d(1.0, 0.0, 0.0), 480, 0.02);
+  EXPECT_EQ(f.shutter_rate, rate);
+  EXPECT_EQ(f.features.keypoints[0].ux, compensated.keypoints[0].ux);
+}
+
 }  // namespace
-}  // namespace coloc::slam::mapping
+}  // namespace coloc::slam::map
