@@ -22,6 +22,7 @@ void BundleOptions::check() const {
   if (!(chi2_stereo > 0.0)) throw Error("BundleOptions.chi2_stereo must be > 0");
   if (!(chi2_mono > 0.0)) throw Error("BundleOptions.chi2_mono must be > 0");
   if (!(chi2_inertial > 0.0)) throw Error("BundleOptions.chi2_inertial must be > 0");
+  if (dense_schur_max_poses < 0) throw Error("BundleOptions.dense_schur_max_poses must be >= 0");
 }
 
 void pose_to_array(const SE3& pose, double* x) {
@@ -300,7 +301,10 @@ int solve(BundleProblem& problem, std::vector<double>& pose_params, Extras& x, c
     ceres_problem.SetParameterUpperBound(&delta, 0, r.max - r.current);
   }
   ceres::Solver::Options sopts;
-  sopts.linear_solver_type = ceres::SPARSE_SCHUR;
+  const auto free_poses = std::count_if(problem.poses.begin(), problem.poses.end(),
+                                        [](const BundleProblem::Pose& p) { return !p.fixed; });
+  sopts.linear_solver_type =
+      free_poses <= options.dense_schur_max_poses ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
   sopts.max_num_iterations = iterations;
   sopts.num_threads = 1;
   sopts.logging_type = ceres::SILENT;

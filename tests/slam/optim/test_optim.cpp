@@ -153,9 +153,19 @@ TEST(Optim, LocalBundleAdjustmentReducesPoseAndPointErrors) {
       problem.observations.push_back(o);
     }
   }
-  const auto result = bundle_adjust(problem, kK);
+  BundleProblem sparse = problem;
+  const auto result = bundle_adjust(problem, kK);  // 3 free poses: the dense reduced system
   EXPECT_FALSE(result.aborted);
   EXPECT_LT(result.final_cost, result.initial_cost);
+  // The sparse factorization (for large problems) reaches the same optimum.
+  BundleOptions sparse_options;
+  sparse_options.dense_schur_max_poses = 0;
+  const auto sparse_result = bundle_adjust(sparse, kK, sparse_options);
+  EXPECT_NEAR(sparse_result.final_cost, result.final_cost, 1e-9 * result.final_cost);
+  for (std::size_t i = 0; i < 5; ++i) {
+    EXPECT_LT(translation_distance(sparse.poses[i].cam_from_world, problem.poses[i].cam_from_world),
+              1e-9);
+  }
   for (std::size_t i = 0; i < 5; ++i) {
     EXPECT_LT(translation_distance(problem.poses[i].cam_from_world, truth[i]), 0.005) << i;
   }
