@@ -57,16 +57,18 @@ struct LocalMappingOptions {
   // 25 mm (std 5.7 mm); from half, 1 of 40 (std 2.7 mm). The price: fr1/xyz 4.2 -> 4.5 mm, and
   // a global-shutter twin room without the key 3.7-4.0 -> 5.5 mm (its first second is
   // compensated for a shear it does not have). A map that is continued starts from its own.
+  // Checked again once keyframes carried their poses' rate: from 0, fr1/xyz 4.3 -> 5.4 mm,
+  // fr1/rpy and the keyless room level (8 and 2 interleaved runs). Half stays.
   double readout_start = 0.5;
   // Windows of fewer keyframes (the current one, its covisible ones and those held fixed at the
-  // window's edge) leave the estimate as it is. On fr1/rpy with the ORB-SLAM3 TUM1 file (no
-  // Camera.readoutTime), paced, the first local BAs of 2-4 keyframes took it from 16.7 to 4-7 ms on
-  // every run, far below where it settles (19-26 ms), and the first fast turns were tracked while
-  // it climbed back: 10 gave ATE median 14.1 mm, max 17.7 over 35 runs against 15.5 / 25.8 over 47
-  // without. But a global shutter without the key (twin room) then keeps the start value
-  // longer: 5.9 -> 10.4 mm. So 0 by default; 10 in the settings
-  // (`Coloc.mapping.readout_min_keyframes: 10`) for rolling-shutter footage that turns fast from
-  // the start.
+  // window's edge) leave the estimate as it is. It was added when the first local BAs of 2-4
+  // keyframes took fr1/rpy's estimate (ORB-SLAM3 TUM1 file, paced) from 16.7 to 4 ms on every
+  // run: 10 cut the runs above 19 mm from 11 of 47 to 0 of 35, but kept a global shutter
+  // without the key at its start value longer (twin room 5.9 -> 10.4 mm). The cause was the
+  // first keyframe, which had no rate, and keyframes whose rate was refined at the current
+  // readout (tracking::Tracker::refine_rolling_shutter); since they carry the rate of their
+  // poses, the first BAs move the estimate up (17 -> 20 ms) and 0 keeps none above 18.0 mm in
+  // 32 runs. Kept for footage that turns fast from its first frame.
   std::size_t readout_min_keyframes = 0;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
