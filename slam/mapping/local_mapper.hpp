@@ -64,11 +64,11 @@ struct LocalMappingOptions {
   // window's edge) leave the estimate as it is. It was added when the first local BAs of 2-4
   // keyframes took fr1/rpy's estimate (ORB-SLAM3 TUM1 file, paced) from 16.7 to 4 ms on every
   // run: 10 cut the runs above 19 mm from 11 of 47 to 0 of 35, but kept a global shutter
-  // without the key at its start value longer (twin room 5.9 -> 10.4 mm). The cause was the
-  // first keyframe, which had no rate, and keyframes whose rate was refined at the current
-  // readout (tracking::Tracker::refine_rolling_shutter); since they carry the rate of their
-  // poses, the first BAs move the estimate up (17 -> 20 ms) and 0 keeps none above 18.0 mm in
-  // 32 runs. Kept for footage that turns fast from its first frame.
+  // without the key at its start value longer (twin room 5.9 -> 10.4 mm). The cause was
+  // keyframes whose rate was refined at the current readout (tracking::Tracker::
+  // refine_rolling_shutter), which look right at any readout; since keyframes carry the rate of
+  // their poses, the default has lost that tail (README, "Accuracy beside ORB-SLAM2"). Kept for
+  // footage that turns fast from its first frame.
   std::size_t readout_min_keyframes = 0;
   // Throws coloc::Error naming the first invalid field.
   void check() const;

@@ -84,36 +84,49 @@ TEST(Tracker, WaitsForTheSinkWhileTheReadoutSettles) {
   }
 }
 
-// While the readout is estimated, every keyframe carries the rotation rate of its poses, the
-// first one too (it takes the rate of the pair it starts), so local mapping can tell readouts
-// apart: a rate refined from the rows' shear would fit any readout.
-TEST(Tracker, KeyframesCarryTheRateOfTheirPosesWhileTheReadoutIsEstimated) {
+// While the readout is estimated, every keyframe after the first carries the rotation rate of
+// its poses, so local mapping can tell readouts apart (a rate refined from the rows' shear would
+// fit any readout). With a known readout, the first keyframe takes the rate of the pair it starts.
+TEST(Tracker, KeyframesCarryTheRateOfTheirPoses) {
   const SyntheticRgbdScene scene;
-  map::SharedMap shared;
-  shared.estimate_readout = true;
-  shared.readout = 0.01;  // wrong (the scene has a global shutter): the rows' shear says 0
-  RecordingSink sink;
-  Tracker tracker = make_tracker(shared, &sink, scene);
-  for (int i = 0; i < scene.size(); ++i) {
-    const SyntheticFrame f = scene.frame(i);
-    ASSERT_EQ(tracker.track(f.color, f.depth, f.timestamp).state, TrackingState::kOk);
-  }
-  ASSERT_GT(shared.map.keyframe_count(), 2u);
   const double dt = 1.0 / 30.0;
-  for (const auto& [id, kf] : shared.map.keyframes()) {
-    const frame::Frame& f = kf.frame;
-    // The true rate over the pair that ends at this keyframe (the first: that starts at it).
-    const int i = static_cast<int>(std::lround(f.timestamp / dt));
+  // The true rate over the pair that ends at frame i (the first: that starts at it).
+  auto true_rate = [&](int i) {
     const int a = i == 0 ? 0 : i - 1;
-    const SE3 cam_b_from_cam_a = scene.world_from_cam(a + 1).inverse() * scene.world_from_cam(a);
-    const Eigen::Vector3d truth = -cam_b_from_cam_a.so3().log() / dt;
-    // Two poses' errors over 33 ms: a few hundredths of a rad/s. A rate refined from the shear
-    // at this wrong readout would be near 0.
-    ASSERT_GT(truth.norm(), 0.1) << "keyframe " << id.value();
-    EXPECT_LT((f.shutter_rate - truth).norm(), 0.4 * truth.norm())
-        << "keyframe " << id.value() << " at frame " << i << ": " << f.shutter_rate.transpose()
-        << " against " << truth.transpose();
-    EXPECT_EQ(f.shutter_readout, 0.01);
+    const SE3 b_from_a = scene.world_from_cam(a + 1).inverse() * scene.world_from_cam(a);
+    return Eigen::Vector3d(-b_from_a.so3().log() / dt);
+  };
+  for (const bool estimating : {true, false}) {
+    SCOPED_TRACE(estimating ? "readout estimated" : "readout known");
+    map::SharedMap shared;
+    shared.estimate_readout = estimating;
+    shared.readout = 0.01;  // wrong (the scene has a global shutter): the rows' shear says 0
+    RecordingSink sink;
+    auto in = tracker_inputs(scene.settings());
+    auto geometry = std::make_shared<frame::FrameGeometry>(*in.geometry);
+    geometry->readout = estimating ? 0.0 : 0.01;
+    Tracker tracker(shared, &sink, vocabulary(), geometry, in.extractor, in.camera, {});
+    for (int i = 0; i < scene.size(); ++i) {
+      const SyntheticFrame f = scene.frame(i);
+      ASSERT_EQ(tracker.track(f.color, f.depth, f.timestamp).state, TrackingState::kOk);
+    }
+    ASSERT_GT(shared.map.keyframe_count(), 2u);
+    for (const auto& [id, kf] : shared.map.keyframes()) {
+      const frame::Frame& f = kf.frame;
+      const int i = static_cast<int>(std::lround(f.timestamp / dt));
+      if (i == 0) {
+        EXPECT_EQ(f.shutter_rate.isZero(), estimating);
+        if (estimating) continue;
+      }
+      if (!estimating && i > 0) continue;  // refined from the shear: checked elsewhere
+      const Eigen::Vector3d truth = true_rate(i);
+      // Two poses' errors over 33 ms: a few hundredths of a rad/s.
+      ASSERT_GT(truth.norm(), 0.1) << "keyframe " << id.value();
+      EXPECT_LT((f.shutter_rate - truth).norm(), 0.4 * truth.norm())
+          << "keyframe " << id.value() << " at frame " << i << ": " << f.shutter_rate.transpose()
+          << " against " << truth.transpose();
+      EXPECT_EQ(f.shutter_readout, 0.01);
+    }
   }
 }
 
