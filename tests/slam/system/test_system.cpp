@@ -170,12 +170,12 @@ TEST(SlamSystem, EstimatesTheRollingShutterReadoutWhenTheSettingsGiveNone) {
     double ate_m = 0.0;
     std::optional<double> summary_readout, saved_readout;
   };
-  auto run = [&](bool estimate, std::size_t min_keyframes = 0) {
+  auto run = [&](bool estimate, double start = 0.5, std::size_t min_keyframes = 0) {
     SystemOptions options;
     options.tracking.wait_for_sink = true;
     options.detect_markers = false;
     options.mapping.estimate_readout = estimate;
-    options.mapping.readout_start = 0.0;  // the estimator finds it from nothing
+    options.mapping.readout_start = start;
     options.mapping.readout_min_keyframes = min_keyframes;
     System slam(settings, vocabulary(), options);
     for (std::size_t i = 0; i < sequence->size(); ++i) {
@@ -203,9 +203,14 @@ TEST(SlamSystem, EstimatesTheRollingShutterReadoutWhenTheSettingsGiveNone) {
   EXPECT_FALSE(without.summary_readout.has_value());
   EXPECT_FALSE(without.saved_readout.has_value());
   EXPECT_LT(with.ate_m, without.ate_m);
+  // From nothing, the 37 frames' keyframes alone move the estimate into the band.
+  const Run from_zero = run(true, 0.0);
+  ASSERT_TRUE(from_zero.summary_readout.has_value());
+  EXPECT_GT(*from_zero.summary_readout, 0.003);
+  EXPECT_LT(*from_zero.summary_readout, 0.05);
   // Windows smaller than readout_min_keyframes leave the estimate where it started: the 37
   // frames make fewer than 20 keyframes.
-  const Run held = run(true, 20);
+  const Run held = run(true, 0.0, 20);
   ASSERT_TRUE(held.summary_readout.has_value());
   EXPECT_EQ(*held.summary_readout, 0.0);
   std::cout << "readout estimated " << 1e3 * *with.summary_readout << " ms; ATE "
