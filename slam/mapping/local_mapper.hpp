@@ -57,7 +57,8 @@ struct LocalMappingOptions {
   // 25 mm (std 5.7 mm); from half, 1 of 40 (std 2.7 mm). The price: fr1/xyz 4.2 -> 4.5 mm, and
   // a global-shutter twin room without the key 3.7-4.0 -> 5.5 mm (its first second is
   // compensated for a shear it does not have). A map that is continued starts from its own.
-  // Checked again once keyframes carried their poses' rate: from 0, fr1/xyz 4.3 -> 5.4 mm,
+  // Checked again once keyframes carried their poses' rate (and the first keyframe its pair's,
+  // since limited to a known readout): from 0, fr1/xyz 4.3 -> 5.4 mm,
   // fr1/rpy and the keyless room level (8 and 2 interleaved runs). Half stays.
   double readout_start = 0.5;
   // Windows of fewer keyframes (the current one, its covisible ones and those held fixed at the

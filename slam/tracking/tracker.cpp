@@ -565,10 +565,11 @@ KeyframeId Tracker::add_current_keyframe() {
   // While the readout is estimated, a keyframe is compensated with the rate of its poses, not
   // the one refined from its rows' shear: a refined rate fits the shear at whatever readout
   // tracking had (rate x readout is what the image shows), so a map of such keyframes looks
-  // right at any readout and its local BAs cannot tell where the readout is. fr1/rpy with the
-  // ORB-SLAM3 file (no Camera.readoutTime), paced, 10 interleaved runs: median 14.5 -> 13.4 mm;
-  // the twin room without the key: 6.4 -> 4.5 mm. With a known readout the refined rate stays
-  // (our TUM1 file: 13.5 mm with it, 15.4 without).
+  // right at any readout and its local BAs cannot tell where the readout is. Paced, interleaved
+  // (with the first keyframe's rate, since limited to a known readout): fr1/rpy, ORB-SLAM3 file,
+  // median 14.5 -> 13.4 mm over 10; the twin room without the key 6.4 -> 4.5 mm. Sequential
+  // fr1/rpy, ORB-SLAM3 file: 14.67 -> 13.04 mm. With a known readout the refined rate
+  // stays (our TUM1 file, paced: 13.5 mm with it, 15.4 without).
   if (shared_.estimate_readout && !pose_rate_.isZero()) kf.frame.set_shutter_rate(pose_rate_);
   return shared_.map.add_keyframe(std::move(kf)).id;
 }

@@ -27,6 +27,17 @@ KeyframeId add_turning_keyframe(Map& m, const Eigen::Vector3d& rate, double x) {
   return id;
 }
 
+// Each point projects onto its reference keyframe's (compensated) keypoint, at its depth.
+void expect_points_on_their_keypoints(const Map& m) {
+  for (const auto& [id, p] : m.points()) {
+    const frame::Frame& ref = m.keyframe(p.reference)->frame;
+    const std::uint32_t i = p.observations.at(p.reference);
+    const Eigen::Vector3d pc = ref.cam_from_world * p.position;
+    EXPECT_NEAR(pc.z(), ref.depth[i], 1e-6) << "point " << id.value();
+    EXPECT_LT((ref.geometry().project(pc) - ref.pixel(i)).norm(), 1e-3) << "point " << id.value();
+  }
+}
+
 TEST(MapShutter, PointsFollowTheirReferenceKeyframesKeypoints) {
   Map m;
   const Eigen::Vector3d rate(0.7, 2.0, -0.4);
@@ -52,13 +63,9 @@ TEST(MapShutter, PointsFollowTheirReferenceKeyframesKeypoints) {
     EXPECT_NEAR(f.u_right[i], f.features.keypoints[i].ux - g.bf / f.depth[i], 1e-3);
   }
   EXPECT_GT(moved, 5.0);  // 2 rad/s over 10 ms at the top and bottom rows: ~10 px
-  // Each point projects onto its keypoint again, at its depth; the still keyframe's stay put.
+  // Each point projects onto its keypoint again; the still keyframe's stay put.
+  expect_points_on_their_keypoints(m);
   for (const auto& [id, p] : m.points()) {
-    const frame::Frame& ref = m.keyframe(p.reference)->frame;
-    const std::uint32_t i = p.observations.at(p.reference);
-    const Eigen::Vector3d pc = ref.cam_from_world * p.position;
-    EXPECT_NEAR(pc.z(), ref.depth[i], 1e-6);
-    EXPECT_LT((ref.geometry().project(pc) - ref.pixel(i)).norm(), 1e-3);
     if (p.reference == still) {
       EXPECT_EQ(p.position, positions[id]);
     }
@@ -91,12 +98,8 @@ TEST(MapShutter, AKeyframeWithoutRateTakesOneAndItsPointsFollow) {
     EXPECT_NEAR(f.features.keypoints[i].ux, expected.keypoints[i].ux, 1e-3) << i;
     EXPECT_NEAR(f.features.keypoints[i].uy, expected.keypoints[i].uy, 1e-3) << i;
   }
+  expect_points_on_their_keypoints(m);
   for (const auto& [id, p] : m.points()) {
-    const frame::Frame& ref = m.keyframe(p.reference)->frame;
-    const std::uint32_t i = p.observations.at(p.reference);
-    const Eigen::Vector3d pc = ref.cam_from_world * p.position;
-    EXPECT_NEAR(pc.z(), ref.depth[i], 1e-6);
-    EXPECT_LT((ref.geometry().project(pc) - ref.pixel(i)).norm(), 1e-3);
     if (p.reference == other) {
       EXPECT_EQ(p.position, positions[id]);  // another keyframe's points stay
     } else {
