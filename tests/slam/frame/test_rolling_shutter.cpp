@@ -97,17 +97,23 @@ TEST(RollingShutter, RotationRateFromTheRowShear) {
   EXPECT_EQ(estimate_rotation_rate(obs, prior, 1.0, kF, kF, kCx, kCy), prior);
 }
 
-TEST(RollingShutter, FrameKeepsVirtualRightCoordinatesAndGridConsistent) {
-  auto g = std::make_shared<FrameGeometry>(*test_support::test_geometry());
-  g->readout = 0.02;
+// `n` undistorted keypoints on a diagonal from `first`, `step` pixels apart, over the rows.
+features::OrbFeatures diagonal_keypoints(int n, Eigen::Vector2f first, Eigen::Vector2f step) {
   features::OrbFeatures f;
-  for (int i = 0; i < 50; ++i) {
+  for (int i = 0; i < n; ++i) {
     features::Keypoint kp;
-    kp.x = kp.ux = 100.0f + 8.0f * static_cast<float>(i);
-    kp.y = kp.uy = 40.0f + 8.0f * static_cast<float>(i);
+    kp.x = kp.ux = first.x() + step.x() * static_cast<float>(i);
+    kp.y = kp.uy = first.y() + step.y() * static_cast<float>(i);
     f.keypoints.push_back(kp);
     f.descriptors.push_back({});
   }
+  return f;
+}
+
+TEST(RollingShutter, FrameKeepsVirtualRightCoordinatesAndGridConsistent) {
+  auto g = std::make_shared<FrameGeometry>(*test_support::test_geometry());
+  g->readout = 0.02;
+  const features::OrbFeatures f = diagonal_keypoints(50, {100.0f, 40.0f}, {8.0f, 8.0f});
   Frame frame(FrameId(1), 0.0, f, cv::Mat(480, 640, CV_32FC1, cv::Scalar(2.0f)), g);
   frame.compensate_rolling_shutter(Eigen::Vector3d(0.0, 3.0, 0.0), 480, 0.02);
   for (std::size_t i = 0; i < frame.size(); ++i) {
@@ -122,14 +128,7 @@ TEST(RollingShutter, FrameKeepsVirtualRightCoordinatesAndGridConsistent) {
 
 TEST(RollingShutter, FrameTakesAnotherRateAsIfCompensatedWithItAlone) {
   auto g = std::make_shared<FrameGeometry>(*test_support::test_geometry());
-  features::OrbFeatures f;
-  for (int i = 0; i < 40; ++i) {
-    features::Keypoint kp;
-    kp.x = kp.ux = 60.0f + 13.0f * static_cast<float>(i);
-    kp.y = kp.uy = 10.0f + 11.5f * static_cast<float>(i);
-    f.keypoints.push_back(kp);
-    f.descriptors.push_back({});
-  }
+  const features::OrbFeatures f = diagonal_keypoints(40, {60.0f, 10.0f}, {13.0f, 11.5f});
   const cv::Mat depth(480, 640, CV_32FC1, cv::Scalar(2.0f));
   const Eigen::Vector3d refined(0.4, 2.5, -0.3), from_poses(-0.2, 1.8, 0.5);
   Frame swapped(FrameId(1), 0.0, f, depth, g), direct(FrameId(2), 0.0, f, depth, g);
