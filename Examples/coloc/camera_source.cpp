@@ -87,4 +87,21 @@ std::unique_ptr<dataset::FrameSource> live_frames(capture::RgbdCamera& camera, d
   return std::make_unique<TimedFrames>(camera, seconds);
 }
 
+CaptureLosses end_live(capture::RgbdCamera& camera) {
+  camera.stop();
+  if (camera.unplugged())
+    spdlog::warn("the camera was lost: {}; what came before was used",
+                 camera.end_reason().value_or(""));
+  const capture::CaptureStats s = camera.stats();
+  const CaptureLosses lost{.driver_drops = s.depth.kernel_drops + s.color.kernel_drops,
+                           .queue_drops = s.depth.queue_drops + s.color.queue_drops,
+                           .unpaired = s.pairing.unpaired_depth + s.pairing.unpaired_color};
+  if (lost.total() > 0)
+    spdlog::warn(
+        "frames lost on the way from the camera: {} skipped by the driver, {} dropped while "
+        "SLAM was behind, {} without a partner",
+        lost.driver_drops, lost.queue_drops, lost.unpaired);
+  return lost;
+}
+
 }  // namespace coloc::cli

@@ -58,4 +58,15 @@ LiveInput open_live_input(const std::string& camera, const std::filesystem::path
 // The frames of `camera` for at most `seconds` (0: until the camera stops).
 std::unique_ptr<dataset::FrameSource> live_frames(capture::RgbdCamera& camera, double seconds);
 
+// What a live run lost on the way from the camera: frames the driver skipped, frames dropped
+// because SLAM was behind (a full queue), and frames left without a partner.
+struct CaptureLosses {
+  std::size_t driver_drops = 0, queue_drops = 0, unpaired = 0;
+  std::size_t total() const { return driver_drops + queue_drops + unpaired; }
+};
+
+// Stops `camera` after a live run and warns of what was lost: the camera itself (unplugged)
+// or frames on the way. Call from the thread that read the frames, after the reading ended.
+CaptureLosses end_live(capture::RgbdCamera& camera);
+
 }  // namespace coloc::cli

@@ -356,9 +356,8 @@ void run_localize(const LocalizeArgs& args) {
     const auto frames = live_frames(*in.live->camera, args.seconds);
     while (auto f = frames->next())
       sink(*f, f->timestamp, true);
-    in.live->camera->stop();
-    if (in.live->camera->unplugged())
-      spdlog::warn("the camera was lost: {}", in.live->camera->end_reason().value_or(""));
+    // As with --realtime, "dropped" counts the frames the localizer was too busy to take.
+    totals.dropped = end_live(*in.live->camera).queue_drops;
   } else {
     const dataset::Sequence& sequence = *in.sequence;
     const std::size_t end =

@@ -88,8 +88,12 @@ MapInputs load_inputs(const MapArgs& args) {
 }
 
 // --camera: frames from the live camera, through the same FrameSource as a sequence's.
-RunResult run_live(const MapArgs& args, const RunOptions& run,
-                   const std::function<void(const slam::system::System&)>& finished) {
+struct LiveResult {
+  RunResult run;
+  CaptureLosses lost;
+};
+LiveResult run_live(const MapArgs& args, const RunOptions& run,
+                    const std::function<void(const slam::system::System&)>& finished) {
   block_stop_signals();
   LiveInput live = open_live_input(args.camera, args.calibration, args.mode, args.config,
                                    fs::path(args.trajectory.string() + ".camera.yaml"));
@@ -97,11 +101,7 @@ RunResult run_live(const MapArgs& args, const RunOptions& run,
   const SignalStop signals(*live.camera);
   const auto frames = live_frames(*live.camera, args.seconds);
   RunResult r = run_slam(*frames, nullptr, live.settings, vocabulary, run, finished);
-  live.camera->stop();
-  if (live.camera->unplugged())
-    spdlog::warn("the camera was lost: {}; the map holds what came before",
-                 live.camera->end_reason().value_or(""));
-  return r;
+  return {std::move(r), end_live(*live.camera)};
 }
 
 // `coloc map --camera`: destinations checked first, then the live run and its outputs.
@@ -110,11 +110,12 @@ void run_map_live(const MapArgs& args) {
   if (!args.save.empty()) const AtomicFile probe(args.save);
   { const AtomicFile probe(args.trajectory); }
   if (!args.keyframes.empty()) const AtomicFile probe(args.keyframes);
-  const RunResult r =
+  const LiveResult live =
       run_live(args, {.global_ba = !args.no_global_ba, .loop = !args.no_loop, .load = args.load},
                [&](const slam::system::System& slam) {
                  if (!args.save.empty()) save_finished_map(slam, args.save, args.json);
                });
+  const RunResult& r = live.run;
   write_tum_trajectory(args.trajectory, r.trajectory);
   if (!args.keyframes.empty()) write_tum_trajectory(args.keyframes, r.keyframes);
   if (args.json)
@@ -122,7 +123,10 @@ void run_map_live(const MapArgs& args) {
                 {"tracked", r.summary.tracked},
                 {"keyframes", r.summary.keyframes},
                 {"map_points", r.summary.points},
-                {"loops", r.summary.loop.loops.size()}});
+                {"loops", r.summary.loop.loops.size()},
+                {"driver_drops", live.lost.driver_drops},
+                {"queue_drops", live.lost.queue_drops},
+                {"unpaired", live.lost.unpaired}});
   else
     std::cout << r.summary.describe() << "\ntrajectory: " << args.trajectory.string() << "\n";
 }

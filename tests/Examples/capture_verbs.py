@@ -91,7 +91,10 @@ def main():
         live = json.loads(run([coloc, "map", "--camera", "replay:" + replay, "--mode",
                                "depth=640x480@30,color=640x480@30", "--trajectory",
                                os.path.join(tmp, "live.tum"), "--no-global-ba", "--json"]).stdout)
-        assert live["frames"] == 36 and live["tracked"] >= 30, live
+        # A loaded machine may fall behind the paced replay: what it drops is reported.
+        lost = live["driver_drops"] + live["queue_drops"] + live["unpaired"]
+        assert 30 <= live["frames"] <= 36 and live["tracked"] >= 30, live
+        assert live["frames"] == 36 or lost > 0, live
 
         images = [os.path.join(chess, "franka_image-%d.png" % i) for i in range(1, 9)]
         out = os.path.join(tmp, "franka.yaml")
