@@ -33,6 +33,8 @@ constexpr std::array kTunables{
   Tunable{"tracking.weak_reference_ratio", [](SystemOptions& o) -> Field { return &o.tracking.weak_reference_ratio; }},
   Tunable{"tracking.keyframe_defer_ratio", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_defer_ratio; }},
   Tunable{"tracking.keyframe_defer_max", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_defer_max; }},
+  Tunable{"tracking.keyframe_defer_deviation_deg", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_defer_deviation_deg; }},
+  Tunable{"tracking.keyframe_defer_deviation_max", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_defer_deviation_max; }},
   Tunable{"tracking.keyframe_behind_busy_mapper", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_behind_busy_mapper; }},
   Tunable{"tracking.readout_settle_keyframes", [](SystemOptions& o) -> Field { return &o.tracking.readout_settle_keyframes; }},
   Tunable{"tracking.keyframe_keeps_outliers", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_keeps_outliers; }},

@@ -15,6 +15,9 @@
 #include "slam/matching/search.hpp"
 
 namespace coloc::slam::tracking {
+namespace {
+constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
+}  // namespace
 
 const char* to_string(TrackingState state) {
   switch (state) {
@@ -49,6 +52,10 @@ void TrackingOptions::check() const {
   if (!(keyframe_defer_ratio >= 0.0 && keyframe_defer_ratio < 1.0))
     throw Error("TrackingOptions.keyframe_defer_ratio must be in [0, 1)");
   if (keyframe_defer_max < 0) throw Error("TrackingOptions.keyframe_defer_max must be >= 0");
+  if (!(keyframe_defer_deviation_deg >= 0.0))
+    throw Error("TrackingOptions.keyframe_defer_deviation_deg must be >= 0 (0 = off)");
+  if (keyframe_defer_deviation_max < 0)
+    throw Error("TrackingOptions.keyframe_defer_deviation_max must be >= 0");
   if (reloc_pause_min_inliers < 0)
     throw Error("TrackingOptions.reloc_pause_min_inliers must be >= 0");
   relocalization.check();
@@ -185,6 +192,12 @@ bool Tracker::track_frame(int image_rows, double timestamp, TrackingResult& resu
                   current_.id.value());
   }
   if (ok) {
+    deviation_deg_ = 0.0;
+    if (has_velocity_ && last_.has_pose) {
+      const SE3 predicted = velocity_ * last_.cam_from_world;
+      deviation_deg_ =
+          (current_.cam_from_world * predicted.inverse()).so3().log().norm() * kDegPerRad;
+    }
     if (last_.has_pose) {
       refine_rolling_shutter(image_rows);
       velocity_ = current_.cam_from_world * last_.cam_from_world.inverse();
@@ -546,11 +559,17 @@ bool Tracker::need_keyframe() const {
 
 bool Tracker::defer_keyframe() {
   const int best = *std::max_element(recent_inliers_.begin(), recent_inliers_.end());
-  if (keyframes_deferred_ < options_.keyframe_defer_max &&
-      matches_inliers_ < options_.keyframe_defer_ratio * best) {
+  const bool weak = keyframes_deferred_ < options_.keyframe_defer_max &&
+                    matches_inliers_ < options_.keyframe_defer_ratio * best;
+  const bool off_course = options_.keyframe_defer_deviation_deg > 0.0 &&
+                          keyframes_deferred_ < options_.keyframe_defer_deviation_max &&
+                          deviation_deg_ > options_.keyframe_defer_deviation_deg;
+  if (weak || off_course) {
     ++keyframes_deferred_;
-    spdlog::debug("tracking: frame {} keyframe deferred ({} inliers, {} in a frame before)",
-                  current_.id.value(), matches_inliers_, best);
+    spdlog::debug(
+        "tracking: frame {} keyframe deferred ({} inliers, {} in a frame before; {:.1f} deg off "
+        "the motion model)",
+        current_.id.value(), matches_inliers_, best, deviation_deg_);
     return true;
   }
   keyframes_deferred_ = 0;

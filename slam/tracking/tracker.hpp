@@ -49,6 +49,17 @@ struct TrackingOptions {
   // frame is asked again, at most keyframe_defer_max times in a row. 0 = never defer.
   double keyframe_defer_ratio = 0.5;
   int keyframe_defer_max = 2;
+  // A frame whose tracked rotation departs from the motion model's prediction by more than
+  // keyframe_defer_deviation_deg is not made a keyframe either, up to
+  // keyframe_defer_deviation_max frames in a row (0 = off). In fr1/rpy's blurred turn the true
+  // rate changes by at most ~3 deg per frame, yet a frame tracked with ~50-100 inliers can land
+  // 10-17 deg off the prediction; as a keyframe it unprojects its depth into points at that
+  // pose, the frames after it track against them, and the run ends 20-85 mm off. Sequential
+  // runs from start frames 0-9 of fr1/rpy (2026-11-27): ORB-SLAM3 file, max 22.8 -> 17.5 mm,
+  // mean 15.71 -> 15.13; our TUM1 file, max 37.5 -> 18.8, mean 16.40 -> 14.45 (4 frames in a
+  // row: 2 left the ORB-SLAM3 file's worst at 24.0). Never triggered on 7-Scenes or fr1/xyz.
+  double keyframe_defer_deviation_deg = 6.0;
+  int keyframe_defer_deviation_max = 4;
   // ORB-SLAM's rule takes a keyframe the frame needs (too few of the reference's points tracked)
   // early only while local mapping is idle, so live runs make fewer keyframes than sequential
   // ones (7-Scenes: 64-79 paced, 117 sequential). With this, an empty queue counts as idle: the
@@ -193,7 +204,8 @@ class Tracker {
   void update_local_map();
   bool need_keyframe() const;
   // A needed keyframe is put off when this frame tracked far worse than the ones before it
-  // (TrackingOptions::keyframe_defer_ratio); counts the deferrals in a row.
+  // (TrackingOptions::keyframe_defer_ratio) or far off the motion model's prediction
+  // (keyframe_defer_deviation_deg); counts the deferrals in a row.
   bool defer_keyframe();
   void create_keyframe();
   // Inserts current_ (with its BoW vector) into the map as a new keyframe.
@@ -227,6 +239,9 @@ class Tracker {
   std::size_t keyframes_made_ = 0;       // pushed to the sink
   std::array<int, 3> recent_inliers_{};  // of the last tracked frames, newest first
   int keyframes_deferred_ = 0;           // in a row (keyframe_defer_max)
+  // Degrees between current_'s tracked rotation and the motion model's prediction (0 without
+  // a velocity).
+  double deviation_deg_ = 0.0;
   // The last keyframe this tracker made, and the inliers of the frame it was made from.
   KeyframeId last_keyframe_;
   int last_keyframe_inliers_ = 0;
