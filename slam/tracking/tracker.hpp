@@ -58,6 +58,9 @@ struct TrackingOptions {
   // runs from start frames 0-9 of fr1/rpy (2026-11-27): ORB-SLAM3 file, max 22.8 -> 17.5 mm,
   // mean 15.71 -> 15.13; our TUM1 file, max 37.5 -> 18.8, mean 16.40 -> 14.45 (4 frames in a
   // row: 2 left the ORB-SLAM3 file's worst at 24.0). Never triggered on 7-Scenes or fr1/xyz.
+  // A true snap is put off too: the twin room's 10 deg at frame 10, paced, 3.43 -> 3.67 mm (5.27
+  // -> 4.11 without the readout key); limited to weakly tracked frames, fr1/rpy's worst start
+  // frame with our TUM1 file went back to 37.5 mm.
   double keyframe_defer_deviation_deg = 6.0;
   int keyframe_defer_deviation_max = 4;
   // ORB-SLAM's rule takes a keyframe the frame needs (too few of the reference's points tracked)
