@@ -192,6 +192,24 @@ void replay(const LocalizeArgs& args, const dataset::Sequence& sequence, std::si
   if (args.realtime) totals.dropped = pacer.dropped();
 }
 
+// The live camera's frames until it stops, or the sequence's replayed; each goes to `sink`.
+template <typename Sink>
+void feed_frames(const LocalizeArgs& args, LocalizeInputs& in, SessionTotals& totals, Sink&& sink) {
+  if (in.live) {
+    const SignalStop signals(*in.live->camera);
+    const auto frames = live_frames(*in.live->camera, args.seconds);
+    while (auto f = frames->next())
+      sink(*f, f->timestamp, true);
+    // As with --realtime, "dropped" counts the frames the localizer was too busy to take.
+    totals.dropped = end_live(*in.live->camera).queue_drops;
+    return;
+  }
+  const dataset::Sequence& sequence = *in.sequence;
+  const std::size_t end =
+      args.frames == 0 ? sequence.size() : std::min(sequence.size(), args.start + args.frames);
+  replay(args, sequence, end, totals, sink);
+}
+
 std::optional<eval::AteResult> ate(const dataset::Sequence& sequence, const Trajectory& t,
                                    eval::Alignment alignment) {
   if (sequence.ground_truth().empty() || t.size() < 3) return std::nullopt;
@@ -351,19 +369,7 @@ void run_localize(const LocalizeArgs& args) {
     totals.published += args.publish.size();
     if (first_replay) totals.trajectory.push_back({time, r.world_from_cam});
   };
-  if (in.live) {
-    const SignalStop signals(*in.live->camera);
-    const auto frames = live_frames(*in.live->camera, args.seconds);
-    while (auto f = frames->next())
-      sink(*f, f->timestamp, true);
-    // As with --realtime, "dropped" counts the frames the localizer was too busy to take.
-    totals.dropped = end_live(*in.live->camera).queue_drops;
-  } else {
-    const dataset::Sequence& sequence = *in.sequence;
-    const std::size_t end =
-        args.frames == 0 ? sequence.size() : std::min(sequence.size(), args.start + args.frames);
-    replay(args, sequence, end, totals, sink);
-  }
+  feed_frames(args, in, totals, sink);
   if (args.linger > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(args.linger));
   server->stop();
   if (!args.trajectory.empty() && !totals.trajectory.empty())

@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <numbers>
 #include <opencv2/imgproc.hpp>
 #include <unordered_map>
 #include <unordered_set>
@@ -16,7 +17,7 @@
 
 namespace coloc::slam::tracking {
 namespace {
-constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
+constexpr double kDegPerRad = 180.0 / std::numbers::pi;
 }  // namespace
 
 const char* to_string(TrackingState state) {

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <map>
+#include <numbers>
 #include <numeric>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -244,7 +245,7 @@ TEST(Tracker, PutsAKeyframeOffFromAFrameFarOffTheMotionModel) {
   const auto cam_from_world = [&](int i) { return scene.world_from_cam(i).inverse(); };
   const SE3 predicted = cam_from_world(11) * scene.world_from_cam(10) * cam_from_world(11);
   const double off_deg =
-      (cam_from_world(jump_to) * predicted.inverse()).so3().log().norm() * 180.0 / 3.14159265;
+      (cam_from_world(jump_to) * predicted.inverse()).so3().log().norm() * 180.0 / std::numbers::pi;
   ASSERT_GT(off_deg, 1.0);
   TrackingOptions options;
   options.keyframe_defer_ratio = 0.0;  // only the deviation decides here
