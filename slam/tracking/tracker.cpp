@@ -196,8 +196,7 @@ bool Tracker::track_frame(int image_rows, double timestamp, TrackingResult& resu
     deviation_deg_ = 0.0;
     if (has_velocity_ && last_.has_pose) {
       const SE3 predicted = velocity_ * last_.cam_from_world;
-      deviation_deg_ =
-          (current_.cam_from_world * predicted.inverse()).so3().log().norm() * kDegPerRad;
+      deviation_deg_ = rotation_distance(current_.cam_from_world, predicted) * kDegPerRad;
     }
     if (last_.has_pose) {
       refine_rolling_shutter(image_rows);

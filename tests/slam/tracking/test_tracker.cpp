@@ -245,7 +245,7 @@ TEST(Tracker, PutsAKeyframeOffFromAFrameFarOffTheMotionModel) {
   const auto cam_from_world = [&](int i) { return scene.world_from_cam(i).inverse(); };
   const SE3 predicted = cam_from_world(11) * scene.world_from_cam(10) * cam_from_world(11);
   const double off_deg =
-      (cam_from_world(jump_to) * predicted.inverse()).so3().log().norm() * 180.0 / std::numbers::pi;
+      rotation_distance(cam_from_world(jump_to), predicted) * 180.0 / std::numbers::pi;
   ASSERT_GT(off_deg, 1.0);
   TrackingOptions options;
   options.keyframe_defer_ratio = 0.0;  // only the deviation decides here
