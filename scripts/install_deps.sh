@@ -18,6 +18,7 @@ packages=(
   python3 python3-numpy python3-matplotlib
   libcpp-httplib-dev
   nodejs chromium chromium-driver
+  mkdocs
 )
 
 missing=()
