@@ -105,7 +105,9 @@ void FusionNode::stop() {
 FusedPose FusionNode::push_xr_locked(double time, const SE3& xr_from_head) {
   const std::uint64_t before = fuser_.stats().xr_poses;
   FusedPose out = fuser_.push_xr_pose(time, xr_from_head);
-  if (fuser_.stats().xr_poses != before && !endpoint_.targets().empty()) {
+  if (fuser_.stats().xr_poses == before) return out;  // out of order: nothing new
+  if (options_.on_fused) options_.on_fused(out);
+  if (!endpoint_.targets().empty()) {
     const auto message = PoseMessage::from_pose(
         out.time, next_sequence_++, static_cast<std::int32_t>(out.state), out.world_from_head);
     published_ += endpoint_.publish(kFusedPoseAddress, message, options_.bundles);

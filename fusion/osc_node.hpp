@@ -87,6 +87,9 @@ struct FusionNodeOptions {
   std::vector<std::string> publish;  // targets of /coloc/fused_pose
   bool bundles = false;
   StreamGuardOptions streams;  // plausibility of each incoming stream (stream_guard.hpp)
+  // Sees each new fused pose (one per accepted headset pose), on the thread that pushed it and
+  // under the node's lock: keep it short (`coloc fuse --listen --out` appends a line to a file).
+  std::function<void(const FusedPose&)> on_fused;
 };
 
 struct FusionNodeStats {

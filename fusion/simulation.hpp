@@ -6,7 +6,7 @@
 //
 // Drift model: world_from_xr(t) starts at a random alignment and then drifts by a bias (constant
 // velocity / yaw rate) plus a random walk; headset poses also get white noise. The white noise
-// defaults come from the 20-minute static Vive log (../shared/data/vive_tracker_vs_lasertracker,
+// defaults come from the 20-minute static Vive log ($COLOC_DATA/vive_tracker_vs_lasertracker,
 // see analyze_static_drift_log); that log's slow wander (~1 mm in 20 min, lighthouse tracking)
 // is far below inside-out drift while walking, so the drift rates default to inside-out figures
 // (a few mm/s, ~0.05 deg/s: metres and degrees after several minutes, the paper's problem).

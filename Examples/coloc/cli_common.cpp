@@ -6,11 +6,7 @@
 #include <string>
 
 #include "Examples/coloc/verbs.hpp"
-
-// The CLI's CMakeLists defines COLOC_SOURCE_DIR; "." keeps a stray build of a single file working.
-#ifndef COLOC_SOURCE_DIR
-#define COLOC_SOURCE_DIR "."
-#endif
+#include "slam/core/error.hpp"
 
 namespace coloc::cli {
 
@@ -55,14 +51,29 @@ Json json_row_major(const Eigen::MatrixXd& m) {
   return flat;
 }
 
-std::filesystem::path source_dir() {
-  if (const char* env = std::getenv("COLOC_SOURCE_DIR"); env != nullptr && *env != '\0') return env;
-  return COLOC_SOURCE_DIR;
+std::filesystem::path data_dir() {
+  if (const char* env = std::getenv("COLOC_DATA_DIR"); env != nullptr && *env != '\0') return env;
+  std::error_code error;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", error);
+  if (error) throw Error("cannot find this executable (/proc/self/exe): set COLOC_DATA_DIR");
+  return exe.parent_path().parent_path() / "share" / "coloc";
 }
 
-std::filesystem::path default_data_dir() {
-  if (const char* env = std::getenv("COLOC_DATA"); env != nullptr && *env != '\0') return env;
-  return source_dir().parent_path() / "shared" / "data";
+std::filesystem::path data_file(const std::filesystem::path& relative) {
+  const std::filesystem::path path = data_dir() / relative;
+  if (!std::filesystem::exists(path))
+    throw Error("coloc's data is missing (a broken install? set COLOC_DATA_DIR to its share/coloc)",
+                {.file = path.string()});
+  return path;
+}
+
+std::filesystem::path shipped_vocabulary() {
+  return data_file("vocabulary/coloc_orb_k10_L5.cvoc");
+}
+
+std::filesystem::path recordings_dir() {
+  const char* env = std::getenv("COLOC_DATA");
+  return env != nullptr ? std::filesystem::path(env) : std::filesystem::path();
 }
 
 }  // namespace coloc::cli

@@ -1,6 +1,6 @@
 #pragma once
 // Small helpers shared by the CLI verbs: exit-code carrying failures, JSON output, and where
-// the repository and the shared data are.
+// the CLI's own data and the recordings are.
 
 #include <Eigen/Core>
 #include <filesystem>
@@ -29,11 +29,17 @@ Json json_rows(const Eigen::MatrixXd& m);
 // A matrix as one flat row-major array.
 Json json_row_major(const Eigen::MatrixXd& m);
 
-// The repository (shipped vocabulary, camera files, plot script): $COLOC_SOURCE_DIR, else the
-// source tree this binary was built from.
-std::filesystem::path source_dir();
+// The data the CLI ships with (vocabulary/, settings/, web/, plot.py): $COLOC_DATA_DIR, else
+// share/coloc beside the folder of this executable (PREFIX/bin/coloc -> PREFIX/share/coloc;
+// the build tree mirrors that layout). Never the source tree: an installed coloc runs alone.
+std::filesystem::path data_dir();
+// `relative` inside data_dir(); throws coloc::Error naming the path and COLOC_DATA_DIR when it
+// is missing (a broken install says so instead of failing later on an unreadable file).
+std::filesystem::path data_file(const std::filesystem::path& relative);
+// The shipped ORB vocabulary.
+std::filesystem::path shipped_vocabulary();
 
-// The shared real recordings: $COLOC_DATA, else ../shared/data next to the repository.
-std::filesystem::path default_data_dir();
+// The real recordings (TUM, 7-Scenes, EuRoC, ...): $COLOC_DATA; empty when it is not set.
+std::filesystem::path recordings_dir();
 
 }  // namespace coloc::cli

@@ -7,10 +7,12 @@
 #include <CLI/CLI.hpp>
 #include <exception>
 #include <iostream>
+#include <string>
 
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/version.hpp"
 
 int main(int argc, char** argv) {
   // Logs go to stderr so stdout stays machine-readable.
@@ -19,13 +21,15 @@ int main(int argc, char** argv) {
 
   CLI::App app{"coloc: co-location of XR users with laser-scanned buildings"};
   app.require_subcommand(1);
+  app.set_version_flag("--version", "coloc " + std::string(coloc::version()) + " (git " +
+                                        std::string(coloc::git_hash()) + ")");
   bool verbose = false;
   app.add_flag("-v,--verbose", verbose, "Debug logging");
   app.parse_complete_callback([&] {
     if (verbose) spdlog::set_level(spdlog::level::debug);
   });
 
-  // `coloc bench <what>`: speed figures for DESIGN.md section 5; each module adds its own.
+  // `coloc bench <what>`: speed figures (docs/design.md, targets); each module adds its own.
   CLI::App& bench = *app.add_subcommand("bench", "Measure speed (prints figures)");
   bench.require_subcommand(1);
 

@@ -129,7 +129,7 @@ void write_plot(const fs::path& path, const std::vector<Panel>& panels) {
                     "'): install python3 and python3-matplotlib (scripts/install_deps.sh), "
                     "then re-run cmake",
                 {.file = path.string()});
-  const fs::path script = source_dir() / "Examples" / "coloc" / "plot.py";
+  const fs::path script = data_file("plot.py");
   if (!fs::exists(script)) throw Error("plot script not found", {.file = script.string()});
 
   const fs::path description = temp_file(".json");

@@ -14,9 +14,8 @@ namespace {
 fs::path default_config(const dataset::Sequence& sequence) {
   if (fs::is_regular_file(sequence.folder() / "camera.yaml"))
     return sequence.folder() / "camera.yaml";
-  const fs::path dir = source_dir() / "Examples/RGB-D";
-  if (sequence.format() == "7scenes") return dir / "7Scenes.yaml";
-  if (sequence.format() == "tum") return dir / "TUM1.yaml";
+  if (sequence.format() == "7scenes") return data_file("settings/7Scenes.yaml");
+  if (sequence.format() == "tum") return data_file("settings/TUM1.yaml");
   throw Error("no default camera settings for format '" + sequence.format() + "': pass --config");
 }
 
@@ -44,8 +43,7 @@ SlamInputs load_slam_inputs(const fs::path& sequence, const fs::path& config) {
 }
 
 slam::bow::Vocabulary load_vocabulary(const fs::path& path) {
-  return slam::bow::Vocabulary::load(
-      path.empty() ? source_dir() / "Vocabulary/coloc_orb_k10_L5.cvoc" : path);
+  return slam::bow::Vocabulary::load(path.empty() ? shipped_vocabulary() : path);
 }
 
 }  // namespace coloc::cli

@@ -17,8 +17,8 @@ struct SlamInputs {
   std::unique_ptr<dataset::Sequence> sequence;
 };
 
-// Empty `config`: the sequence folder's camera.yaml (twin sequences), else
-// Examples/RGB-D/TUM1.yaml or 7Scenes.yaml by the sequence's format.
+// Empty `config`: the sequence folder's camera.yaml (twin sequences), else the shipped
+// settings/TUM1.yaml or settings/7Scenes.yaml (data_dir()) by the sequence's format.
 SlamInputs load_slam_inputs(const std::filesystem::path& sequence,
                             const std::filesystem::path& config);
 
@@ -29,7 +29,7 @@ std::unique_ptr<dataset::Sequence> open_sequence_for(const std::filesystem::path
 // Empty `config`: the shipped file for the sequence's format (as load_slam_inputs picks it).
 std::filesystem::path default_config_for(const std::filesystem::path& sequence);
 
-// Empty path: the shipped Vocabulary/coloc_orb_k10_L5.cvoc.
+// Empty path: the shipped vocabulary (data_dir()).
 slam::bow::Vocabulary load_vocabulary(const std::filesystem::path& path);
 
 }  // namespace coloc::cli

@@ -17,11 +17,13 @@
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <random>
 
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "slam/core/timing.hpp"
+#include "slam/core/trajectory.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/eval/trajectory_error.hpp"
 #include "slam/settings/settings.hpp"
@@ -35,6 +37,16 @@ struct DemoArgs {
   std::string preset = "room";
   int seed = 1;
   bool skip_twin = false;
+  bool quick = false;  // a 20 s walk, no real-data SLAM: the whole chain in a few minutes
+};
+
+// The chain's figures for the closing table (absent: the step did not run).
+struct DemoSummary {
+  std::optional<double> map_ate_m;     // keyframes of the twin's map, Sim3-aligned
+  std::optional<double> colocation_m;  // localized walk vs truth in the scan frame
+  std::optional<double> localize_ms;   // median per frame
+  std::optional<double> fused_head_m;  // fused head poses vs truth in the scan frame
+  std::size_t fused_poses = 0, headset_poses = 0;
 };
 
 std::string shown_command(const std::vector<std::string>& args) {
@@ -44,12 +56,9 @@ std::string shown_command(const std::vector<std::string>& args) {
   return shown;
 }
 
-// Starts `coloc ARGS...` (this very executable), printing the command first (" &" when the demo
-// goes on without waiting); throws CliFailure when it cannot start.
-pid_t start_verb(const std::vector<std::string>& args, bool background = false) {
-  const std::string shown = shown_command(args);
-  std::printf("  $ %s%s\n", shown.c_str(), background ? " &" : "");
-  std::fflush(stdout);
+// Starts `coloc ARGS...` (this very executable) with `actions` (null: none) on its file
+// descriptors; throws CliFailure when it cannot start.
+pid_t spawn_self(const std::vector<std::string>& args, const posix_spawn_file_actions_t* actions) {
   std::vector<std::string> argv_store = {"coloc"};
   argv_store.insert(argv_store.end(), args.begin(), args.end());
   std::vector<char*> argv;
@@ -58,9 +67,17 @@ pid_t start_verb(const std::vector<std::string>& args, bool background = false) 
     argv.push_back(a.data());
   argv.push_back(nullptr);
   pid_t pid = 0;
-  if (posix_spawn(&pid, "/proc/self/exe", nullptr, nullptr, argv.data(), environ) != 0)
-    throw CliFailure("cannot start: " + shown);
+  if (posix_spawn(&pid, "/proc/self/exe", actions, nullptr, argv.data(), environ) != 0)
+    throw CliFailure("cannot start: " + shown_command(args));
   return pid;
+}
+
+// Starts `coloc ARGS...`, printing the command first (" &" when the demo goes on without
+// waiting).
+pid_t start_verb(const std::vector<std::string>& args, bool background = false) {
+  std::printf("  $ %s%s\n", shown_command(args).c_str(), background ? " &" : "");
+  std::fflush(stdout);
+  return spawn_self(args, nullptr);
 }
 
 void wait_verb(pid_t pid, const std::string& shown) {
@@ -72,6 +89,42 @@ void wait_verb(pid_t pid, const std::string& shown) {
 // Runs `coloc ARGS...` and waits; throws CliFailure when it fails.
 void run_verb(const std::vector<std::string>& args) {
   wait_verb(start_verb(args), shown_command(args));
+}
+
+// Runs `coloc ARGS... --json` with its stdout captured and waits; throws CliFailure when it
+// fails or prints no JSON.
+Json capture_verb(std::vector<std::string> args) {
+  args.emplace_back("--json");
+  const std::string shown = shown_command(args);
+  std::printf("  $ %s\n", shown.c_str());
+  std::fflush(stdout);
+  int pipe_fds[2];
+  if (pipe(pipe_fds) != 0) throw CliFailure("cannot start: " + shown);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDOUT_FILENO);
+  posix_spawn_file_actions_addclose(&actions, pipe_fds[0]);
+  pid_t pid = -1;
+  try {
+    pid = spawn_self(args, &actions);
+  } catch (...) {
+    posix_spawn_file_actions_destroy(&actions);
+    close(pipe_fds[0]);
+    close(pipe_fds[1]);
+    throw;
+  }
+  posix_spawn_file_actions_destroy(&actions);
+  close(pipe_fds[1]);
+  std::string out;
+  char buffer[4096];
+  ssize_t n = 0;
+  while ((n = read(pipe_fds[0], buffer, sizeof(buffer))) > 0)
+    out.append(buffer, static_cast<std::size_t>(n));
+  close(pipe_fds[0]);
+  wait_verb(pid, shown);
+  const Json document = Json::parse(out, nullptr, false);
+  if (document.is_discarded()) throw CliFailure("no JSON from: " + shown);
+  return document;
 }
 
 // Ends a verb started in the background (SIGINT, as a user would) and waits for it.
@@ -95,6 +148,35 @@ int free_udp_port() {
   close(fd);
   if (port == 0) throw CliFailure("no free UDP port for the OSC demo");
   return port;
+}
+
+// --quick: the twin's walks cut to this many seconds.
+constexpr const char* kQuickSeconds = "20";
+
+// Where the twin (or one of its walks, `suffix`) is generated; a quick run's shorter walks
+// have folders of their own, so neither run reuses the other's.
+std::filesystem::path twin_dir(const DemoArgs& a, const std::filesystem::path& out,
+                               const std::string& suffix) {
+  return out / ("twin_" + a.preset + (a.quick ? "_quick" : "") + suffix);
+}
+
+// One row of the closing table: the figure, or why it is missing.
+void summary_row(const char* what, const std::optional<double>& value, double scale,
+                 const char* unit) {
+  if (value)
+    std::printf("  %-44s %10.2f %s\n", what, scale * *value, unit);
+  else
+    std::printf("  %-44s %10s\n", what, "(not run)");
+}
+
+void print_summary(const DemoSummary& s) {
+  std::printf("\nThe chain on the twin (truth known exactly):\n");
+  summary_row("SLAM map: keyframe ATE (Sim3-aligned)", s.map_ate_m, 100.0, "cm");
+  summary_row("registration: markers level; co-location error", s.colocation_m, 100.0, "cm");
+  summary_row("localization: time per frame (median)", s.localize_ms, 1.0, "ms");
+  summary_row("fused head error in the scan frame (RMSE)", s.fused_head_m, 100.0, "cm");
+  if (s.headset_poses > 0)
+    std::printf("  %-44s %10zu of %zu\n", "head poses fused", s.fused_poses, s.headset_poses);
 }
 
 void step_header(int n, const std::string& what) {
@@ -180,16 +262,20 @@ void demo_evaluation(const std::filesystem::path& data, const std::filesystem::p
 }
 
 // The pipeline on the digital twin: scan, markers, SLAM, evaluation, the saved map.
-void demo_twin(const DemoArgs& a, const std::filesystem::path& out, int& step) {
-  const std::filesystem::path twin = out / ("twin_" + a.preset);
-  const std::string vocabulary = (source_dir() / "Vocabulary" / "coloc_orb_k10_L5.cvoc").string();
+void demo_twin(const DemoArgs& a, const std::filesystem::path& out, int& step,
+               DemoSummary& summary) {
+  const std::filesystem::path twin = twin_dir(a, out, "");
+  const std::string vocabulary = shipped_vocabulary().string();
   step_header(++step,
               "Digital twin '" + a.preset + "': building, laser scan, RGB-D walk, IMU, headset");
   if (std::filesystem::exists(twin / "scan" / "scan.e57")) {
     std::printf("  %s exists: reused (delete it to regenerate)\n", twin.c_str());
   } else {
-    run_verb({"twin", "generate", "--preset", a.preset, "--seed", std::to_string(a.seed), "--out",
-              twin.string()});
+    std::vector<std::string> generate = {"twin",   "generate",   "--preset",
+                                         a.preset, "--seed",     std::to_string(a.seed),
+                                         "--out",  twin.string()};
+    if (a.quick) generate.insert(generate.end(), {"--seconds", kQuickSeconds});
+    run_verb(generate);
   }
   step_header(++step, "E57 laser scan (our own reader)");
   run_verb({"e57", "info", (twin / "scan" / "scan.e57").string()});
@@ -214,6 +300,10 @@ void demo_twin(const DemoArgs& a, const std::filesystem::path& out, int& step) {
   std::printf("  accuracy of every keyframe of the continued map (both halves):\n");
   run_verb({"eval", "ate", (twin / "sequence" / "groundtruth.txt").string(),
             (out / "twin_keyframes.txt").string(), "--plot", (out / "twin_ate.png").string()});
+  summary.map_ate_m = eval::compute_ate(read_tum_trajectory(twin / "sequence" / "groundtruth.txt"),
+                                        read_tum_trajectory(out / "twin_keyframes.txt"),
+                                        {.alignment = eval::Alignment::kSim3})
+                          .translation.rmse;
   step_header(++step, "The twin's map as one SQLite file: every check of a load, then its summary");
   run_verb({"mapdb", "verify", map_db, "--vocabulary", vocabulary});
   run_verb({"mapdb", "info", map_db});
@@ -240,26 +330,63 @@ void demo_twin(const DemoArgs& a, const std::filesystem::path& out, int& step) {
   step_header(++step,
               "A second walk through the building, localized in the map registered with the "
               "markers and streamed over OSC to the fusion node");
-  const std::filesystem::path walk = out / ("twin_" + a.preset + "_walk1");
+  const std::filesystem::path walk = twin_dir(a, out, "_walk1");
   if (std::filesystem::exists(walk / "sequence" / "rgb.txt")) {
     std::printf("  %s exists: reused (delete it to regenerate)\n", walk.c_str());
   } else {
-    run_verb({"twin", "generate", "--preset", a.preset, "--seed", std::to_string(a.seed), "--walk",
-              "1", "--no-scan", "--out", walk.string()});
+    std::vector<std::string> generate = {
+        "twin",   "generate", "--preset",  a.preset, "--seed",     std::to_string(a.seed),
+        "--walk", "1",        "--no-scan", "--out",  walk.string()};
+    if (a.quick) generate.insert(generate.end(), {"--seconds", kQuickSeconds});
+    run_verb(generate);
   }
-  const std::string port = std::to_string(free_udp_port());
-  const std::vector<std::string> fuse_args = {"fuse", "--listen", port};
+  // Three processes at once, as on site: the fusion node, the headset streaming its drifting
+  // 90 Hz poses to it as recorded (`fuse play`), and the localizer publishing global poses paced
+  // as a live camera. The node writes the fused head poses when it stops.
+  const std::string url = "osc.udp://127.0.0.1:" + std::to_string(free_udp_port());
+  const std::string fused = (out / "twin_walk1_fused.txt").string();
+  const std::vector<std::string> fuse_args = {"fuse", "--listen", url.substr(url.rfind(':') + 1),
+                                              "--out", fused};
   const pid_t fuse = start_verb(fuse_args, true);
+  const std::vector<std::string> play_args = {
+      "fuse", "play", (walk / "headset" / "headset.txt").string(), "--to", url};
+  pid_t play = -1;
   try {
-    run_verb({"localize", "--map", scan_db, "--sequence", (walk / "sequence").string(),
-              "--trajectory", (out / "twin_walk1_localized.txt").string(), "--cam-from-head",
-              (walk / "headset" / "calibration.yaml").string(), "--publish",
-              "osc.udp://127.0.0.1:" + port});
+    play = start_verb(play_args, true);
+    const Json localized = capture_verb(
+        {"localize", "--map", scan_db, "--sequence", (walk / "sequence").string(), "--realtime",
+         "--trajectory", (out / "twin_walk1_localized.txt").string(), "--cam-from-head",
+         (walk / "headset" / "calibration.yaml").string(), "--publish", url});
+    summary.localize_ms = localized.value("ms_per_frame_median", 0.0);
+    if (localized.contains("ate_unaligned_rmse_m") && localized["ate_unaligned_rmse_m"].is_number())
+      summary.colocation_m = localized["ate_unaligned_rmse_m"].get<double>();
+    std::printf("  localized %d of %d frames, %.1f ms per frame (median)\n",
+                localized.value("localized", 0), localized.value("frames", 0),
+                *summary.localize_ms);
+    wait_verb(play, shown_command(play_args));
+    play = -1;
   } catch (...) {
+    if (play > 0) stop_verb(play, shown_command(play_args));
     stop_verb(fuse, shown_command(fuse_args));
     throw;
   }
   stop_verb(fuse, shown_command(fuse_args));
+  // The fused head against the truth, in the scan frame: no alignment, this is what the user
+  // sees of co-location.
+  const Trajectory truth = read_tum_trajectory(walk / "headset" / "headset_groundtruth.txt");
+  const Trajectory fused_poses = read_tum_trajectory(fused);
+  summary.headset_poses = truth.size();
+  summary.fused_poses = fused_poses.size();
+  if (fused_poses.size() >= 3) {
+    summary.fused_head_m =
+        eval::compute_ate(truth, fused_poses, {.alignment = eval::Alignment::kNone})
+            .translation.rmse;
+    std::printf("  fused %zu head poses: %.1f cm RMSE against the truth in the scan frame\n",
+                fused_poses.size(), 100.0 * *summary.fused_head_m);
+  } else {
+    throw CliFailure("the fusion node fused " + std::to_string(fused_poses.size()) +
+                     " head poses: the headset or the localizer did not reach it");
+  }
 }
 
 // A shared session of two VR systems on the twin: each calibrated to the anchor camera by a
@@ -288,8 +415,7 @@ void demo_session(const DemoArgs& a, const std::filesystem::path& out, int& step
   run_verb({"session", "check", config});
   run_verb({"session", "--config", config, "--duration", "0.5", "--log",
             (dir / "session_log.csv").string()});
-  const std::filesystem::path walk =
-      out / ("twin_" + a.preset) / "headset" / "headset_groundtruth.txt";
+  const std::filesystem::path walk = twin_dir(a, out, "") / "headset" / "headset_groundtruth.txt";
   std::vector<std::string> sim = {"bench",    "session", "--accuracy", "--users", "2",
                                   "--trials", "1",       "--duration", "20"};
   if (!a.skip_twin && std::filesystem::exists(walk)) {
@@ -308,9 +434,8 @@ void demo_real_slam(const std::filesystem::path& data, const std::filesystem::pa
     std::printf("  %s not present, skipped\n", dir.c_str());
     return;
   }
-  run_verb({"map", "--sequence", dir.string(), "--config",
-            (source_dir() / "Examples" / "RGB-D" / "TUM1.yaml").string(), "--vocabulary",
-            (source_dir() / "Vocabulary" / "coloc_orb_k10_L5.cvoc").string(), "--trajectory",
+  run_verb({"map", "--sequence", dir.string(), "--config", data_file("settings/TUM1.yaml").string(),
+            "--vocabulary", shipped_vocabulary().string(), "--trajectory",
             (out / "tum_fr1_xyz_trajectory.txt").string()});
   run_verb({"eval", "ate", (dir / "groundtruth.txt").string(),
             (out / "tum_fr1_xyz_trajectory.txt").string(), "--plot",
@@ -332,13 +457,24 @@ void demo_fusion(int& step) {
 }
 
 void run_demo(const DemoArgs& a) {
-  const std::filesystem::path data =
-      a.data_dir.empty() ? default_data_dir() : std::filesystem::path(a.data_dir);
+  // Without recordings, the steps on real data are skipped: an absolute path that names no
+  // folder makes each of them say so (a relative one could meet a folder in the working dir).
+  const std::filesystem::path given =
+      a.data_dir.empty() ? recordings_dir() : std::filesystem::path(a.data_dir);
+  const std::filesystem::path data = given.empty()
+                                         ? std::filesystem::path("/nonexistent/COLOC_DATA")
+                                         : std::filesystem::absolute(given);
   const std::filesystem::path out = a.out_dir;
   std::filesystem::create_directories(out);
-  std::printf("coloc demo: shared data %s%s, output %s\n", data.c_str(),
-              std::filesystem::exists(data) ? "" : " (missing: real-data steps are skipped)",
-              std::filesystem::absolute(out).c_str());
+  if (given.empty())
+    std::printf(
+        "coloc demo: no recordings (set COLOC_DATA or --data): real-data steps are "
+        "skipped; output %s\n",
+        std::filesystem::absolute(out).c_str());
+  else
+    std::printf("coloc demo: recordings %s%s, output %s\n", data.c_str(),
+                std::filesystem::exists(data) ? "" : " (missing: real-data steps are skipped)",
+                std::filesystem::absolute(out).c_str());
   step_header(1, "Settings files (ORB-SLAM2 and ORB-SLAM3 v1.0, unchanged)");
   demo_settings(data);
   step_header(2, "Recorded sequences (TUM RGB-D, 7-Scenes, EuRoC), read lazily");
@@ -346,12 +482,15 @@ void run_demo(const DemoArgs& a) {
   step_header(3, "Trajectory evaluation (ATE with Sim3 alignment)");
   demo_evaluation(data, out);
   int step = 3;
-  if (!a.skip_twin) demo_twin(a, out, step);
-  demo_real_slam(data, out, step);
+  DemoSummary summary;
+  if (!a.skip_twin) demo_twin(a, out, step, summary);
+  if (!a.quick) demo_real_slam(data, out, step);
   demo_handeye(out, step);
   demo_fusion(step);
   demo_session(a, out, step);
-  std::printf("\ncoloc demo: done; outputs in %s\n", std::filesystem::absolute(out).c_str());
+  print_summary(summary);
+  std::printf("\ncoloc demo: done; outputs (maps, trajectories, plots, marker map) in %s\n",
+              std::filesystem::absolute(out).c_str());
 }
 
 }  // namespace
@@ -361,13 +500,15 @@ void add_demo_verb(CLI::App& app) {
   CLI::App& demo =
       *app.add_subcommand("demo", "Run the system end to end on generated/shared data");
   demo.add_option("--data", args->data_dir,
-                  "Shared real data (default $COLOC_DATA or ../shared/data)");
+                  "Real recordings (default $COLOC_DATA; without them those steps are skipped)");
   demo.add_option("--out", args->out_dir, "Output folder")->capture_default_str();
   demo.add_option("--preset", args->preset, "Digital twin preset")
       ->check(CLI::IsMember({"room", "floor", "building"}))
       ->capture_default_str();
   demo.add_option("--seed", args->seed, "Digital twin seed")->capture_default_str();
   demo.add_flag("--skip-twin", args->skip_twin, "Skip the digital-twin pipeline");
+  demo.add_flag("--quick", args->quick,
+                "The chain on 20 s walks, without the SLAM run on real data (a few minutes)");
   demo.callback([args] { run_demo(*args); });
 }
 

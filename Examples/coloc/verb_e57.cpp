@@ -18,6 +18,7 @@
 #include "e57io/synthetic.hpp"
 #include "e57io/writer.hpp"
 #include "slam/core/atomic_file.hpp"
+#include "slam/core/ply_writer.hpp"
 #include "slam/core/progress.hpp"
 #include "slam/core/timing.hpp"
 
@@ -206,7 +207,7 @@ void extract_images(const std::string& file, const std::string& dir) {
 
 // Appends the valid points of scan `si` as PLY records; returns how many.
 std::uint64_t append_scan_points(const e57::Reader& r, std::size_t si, bool colour, bool local,
-                                 std::ostream& f, Progress& progress) {
+                                 PlyWriter& f, Progress& progress) {
   std::uint64_t written = 0;
   const e57::Data3D& s = r.scans()[si];
   const e57::Pose pose = (s.pose && !local) ? *s.pose : e57::Pose{};
@@ -251,7 +252,7 @@ std::uint64_t append_scan_points(const e57::Reader& r, std::size_t si, bool colo
       }
       ++written;
     }
-    f.write(rec.data(), static_cast<std::streamsize>(rec.size()));
+    f.add_bytes(rec.data(), rec.size());
     progress.advance(n);
   }
   return written;
@@ -260,9 +261,9 @@ std::uint64_t append_scan_points(const e57::Reader& r, std::size_t si, bool colo
 // Binary little-endian PLY of every valid cartesian point, in the file (world) frame unless
 // `local`; colour scaled to 0..255 by the scan's colorLimits.
 void to_ply(const std::string& file, const std::string& out, bool local) {
-  // Claimed before the scan is read: an unwritable output fails at once, and a failure later
-  // leaves an existing PLY as it was.
-  AtomicFile output(out);
+  // Checked before the scan is opened: an unwritable output fails at once, and a failure later
+  // leaves an existing PLY as it was (PlyWriter replaces it only when complete).
+  { const AtomicFile probe(out); }
   const e57::Reader r(file);
   bool colour = !r.scans().empty();
   std::uint64_t total = 0;
@@ -273,26 +274,19 @@ void to_ply(const std::string& file, const std::string& out, bool local) {
     colour = colour && (s.field_mask & field_bit(PointField::kColorRed));
     total += s.point_count;
   }
-  std::ofstream f(output.temp_path(), std::ios::binary);
-  const std::string count_marker = "element vertex ";
-  f << "ply\nformat binary_little_endian 1.0\ncomment written by coloc e57 to-ply\n"
-    << count_marker;
-  const auto count_pos = f.tellp();
-  f << "00000000000000000000\nproperty float x\nproperty float y\nproperty float z\n";
-  if (colour) f << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
-  f << "end_header\n";
+  std::vector<PlyProperty> properties = {
+      {"x", PlyType::kFloat}, {"y", PlyType::kFloat}, {"z", PlyType::kFloat}};
+  if (colour)
+    properties.insert(
+        properties.end(),
+        {{"red", PlyType::kUchar}, {"green", PlyType::kUchar}, {"blue", PlyType::kUchar}});
+  PlyWriter f(out, properties, "written by coloc e57 to-ply");
   std::uint64_t written = 0;
   Progress progress("to-ply", total);
   for (std::size_t si = 0; si < r.scans().size(); ++si)
     written += append_scan_points(r, si, colour, local, f, progress);
   progress.finish();
-  char count[21];
-  std::snprintf(count, sizeof count, "%020llu", static_cast<unsigned long long>(written));
-  f.seekp(count_pos);
-  f.write(count, 20);
-  f.close();
-  if (!f) throw CliFailure("cannot write " + out);
-  output.commit();
+  f.commit();
   std::cout << "wrote " << written << " points to " << out << "\n";
 }
 

@@ -1,14 +1,8 @@
-// coloc eval table2: the paper's Table 2 (Michiels et al. 2024, section 6) for a map at each
-// registration level: every keyframe's stored features matched against the scan rendered at
-// the keyframe's pose (registration/align/scan_match.hpp), EPnP + RANSAC giving the pose the
-// scan says the keyframe has. Metrics per keyframe: the angle (degrees) and centre distance (cm)
-// between the map's pose and that pose, and the median 2-D distance (pixels) between the
-// keyframe's features and the matched features of the rendering at the map's pose (RANSAC
-// inliers). Each is summarized by mean, std, P50 and P90 over the keyframes that matched. With
-// --sequence, the same for a test walk localized in each map (table2_walk.hpp) instead of the
-// map's own keyframes, as the paper evaluates. With --groundtruth (the twin's), also the TRUE
-// pose errors (of the keyframes, or of every localized frame of the walk), which the paper could
-// not measure.
+// coloc eval table2: the paper's Table 2 (registration/align/table2.hpp) for a map at each
+// registration level, over the map's keyframes or, with --sequence, over a test walk localized
+// in each map (registration/align/test_walk.hpp), as the paper evaluates. With --groundtruth (the
+// twin's), also the TRUE pose errors. This file loads, runs and prints; the metrics are the
+// library's.
 
 #include <spdlog/spdlog.h>
 
@@ -19,13 +13,14 @@
 #include <numbers>
 
 #include "Examples/coloc/cli_common.hpp"
-#include "Examples/coloc/row_progress.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
-#include "Examples/coloc/table2_walk.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "registration/align/refine.hpp"
 #include "registration/align/scan_cloud.hpp"
+#include "registration/align/table2.hpp"
+#include "registration/align/test_walk.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/row_progress.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/core/trajectory.hpp"
 #include "slam/mapdb/mapdb.hpp"
@@ -40,54 +35,23 @@ namespace render = registration::render;
 struct Table2Args {
   std::vector<std::string> maps;  // LEVEL=FILE
   fs::path scan, groundtruth, vocabulary;
-  WalkOptions walk;  // walk.sequence empty: the map's keyframes are evaluated
+  align::WalkOptions walk;  // walk.sequence empty: the map's keyframes are evaluated
   double voxel = 0.01;
   int threads = 2;
   bool json = false;
 };
 
-struct Stats {
-  double mean = 0.0, std = 0.0, p50 = 0.0, p90 = 0.0;
-  std::size_t n = 0;
-};
-
-// The paper's columns: mean, population std, P50, P90 (numpy's interpolated quantiles).
-Stats stats_of(const std::vector<double>& v) {
-  Stats s;
-  s.n = v.size();
-  if (v.empty()) return s;
-  const SampleStats summary = summarize(v);
-  s.mean = summary.mean;
-  s.std = summary.stddev;
-  s.p50 = summary.median;
-  s.p90 = quantile(v, 0.9);
-  return s;
-}
-
-Json stats_json(const Stats& s) {
+Json stats_json(const align::Table2Stats& s) {
   return Json{{"mean", s.mean}, {"std", s.std}, {"p50", s.p50}, {"p90", s.p90}, {"n", s.n}};
 }
 
 struct LevelResult {
   std::string level;
   fs::path file;
-  std::size_t keyframes = 0, matched = 0;  // views (keyframes or sampled walk frames)
   std::size_t walk_frames = 0, walk_localized = 0;
-  // TRUE co-location error (RMSE of the camera centres, no alignment) of the keyframes or of
-  // every localized frame of the walk.
-  double true_rmse_cm = 0.0;
-  Stats angle_deg, distance_cm, offset_px;
-  Stats true_angle_deg, true_distance_cm, pnp_true_distance_cm;
+  align::Table2Row row;  // views: keyframes, or sampled walk frames
   double ms = 0.0;
 };
-
-// The views' times (and registered poses), for associating them with the ground truth.
-Trajectory views_trajectory(const std::vector<align::KeyframeRefinement>& r) {
-  Trajectory t;
-  for (const auto& k : r)
-    t.push_back({k.timestamp, k.registered.inverse()});
-  return t;
-}
 
 LevelResult evaluate(const std::string& level, const fs::path& file,
                      const render::PointCloud& cloud, const slam::bow::Vocabulary& vocabulary,
@@ -106,10 +70,10 @@ LevelResult evaluate(const std::string& level, const fs::path& file,
   const Camera camera = slam::mapdb::camera_of(loaded, file);
   align::RefineOptions o;
   o.threads = a.threads;
-  std::optional<LocalizedWalk> walk;
+  std::optional<align::LocalizedWalk> walk;
   std::vector<align::MatchView> views;
   if (!a.walk.sequence.empty()) {
-    walk = localize_walk(file, vocabulary, a.walk);
+    walk = align::localize_walk(file, vocabulary, a.walk);
     views = walk->views;
     out.walk_frames = walk->frames;
     out.walk_localized = walk->localized;
@@ -122,44 +86,7 @@ LevelResult evaluate(const std::string& level, const fs::path& file,
       views, cloud, align::ideal_camera(loaded.map, camera), o,
       [&](std::size_t done, std::size_t total) { progress.callback()(done, total); });
   progress.finish();
-  out.keyframes = r.size();
-  std::vector<double> angle, dist, offset, t_angle, t_dist, pnp_dist;
-  for (const auto& k : r) {
-    if (!k.accepted) continue;
-    ++out.matched;
-    angle.push_back(k.correction_deg);
-    dist.push_back(k.correction_m * 100.0);
-    offset.push_back(k.median_offset_px);
-  }
-  if (!truth.empty()) {
-    Trajectory estimated;
-    if (walk) {
-      estimated = walk->trajectory;
-    } else {
-      for (const auto& k : r)
-        estimated.push_back({k.timestamp, k.registered.inverse()});
-    }
-    double sum_sq = 0.0;
-    for (const auto& [i, j] : associate_by_time(estimated, truth, 1e-3)) {
-      const SE3 cam_from_world = estimated[i].world_from_cam.inverse();
-      const SE3 true_cam_from_world = truth[j].world_from_cam.inverse();
-      t_angle.push_back(align::pose_angle_deg(cam_from_world, true_cam_from_world));
-      t_dist.push_back(align::pose_distance_m(cam_from_world, true_cam_from_world) * 100.0);
-      sum_sq += t_dist.back() * t_dist.back();
-    }
-    if (!t_dist.empty()) out.true_rmse_cm = std::sqrt(sum_sq / double(t_dist.size()));
-    for (const auto& [i, j] : associate_by_time(views_trajectory(r), truth, 1e-3)) {
-      if (r[i].accepted)
-        pnp_dist.push_back(align::pose_distance_m(r[i].pnp, truth[j].world_from_cam.inverse()) *
-                           100.0);
-    }
-  }
-  out.angle_deg = stats_of(angle);
-  out.distance_cm = stats_of(dist);
-  out.offset_px = stats_of(offset);
-  out.true_angle_deg = stats_of(t_angle);
-  out.true_distance_cm = stats_of(t_dist);
-  out.pnp_true_distance_cm = stats_of(pnp_dist);
+  out.row = align::table2_row(r, walk ? walk->trajectory : Trajectory{}, truth);
   out.ms = watch.elapsed_ms();
   return out;
 }
@@ -172,24 +99,24 @@ void print_table(const std::vector<LevelResult>& rows, bool truth) {
   for (std::size_t i = 0; i < rows.size(); ++i)
     std::printf(" | %7s %7s %7s %7s", "mean", "std", "P50", "P90");
   std::printf("\n");
-  const auto line = [&](const char* name, Stats LevelResult::*field) {
+  const auto line = [&](const char* name, align::Table2Stats align::Table2Row::*field) {
     std::printf("%-34s", name);
     for (const auto& r : rows) {
-      const Stats& s = r.*field;
+      const align::Table2Stats& s = r.row.*field;
       std::printf(" | %7.3f %7.3f %7.3f %7.3f", s.mean, s.std, s.p50, s.p90);
     }
     std::printf("\n");
   };
-  line("pose angle error (deg)", &LevelResult::angle_deg);
-  line("pose distance error (cm)", &LevelResult::distance_cm);
-  line("2-D distance error (px)", &LevelResult::offset_px);
+  line("pose angle error (deg)", &align::Table2Row::angle_deg);
+  line("pose distance error (cm)", &align::Table2Row::distance_cm);
+  line("2-D distance error (px)", &align::Table2Row::offset_px);
   if (truth) {
-    line("TRUE pose angle error (deg)", &LevelResult::true_angle_deg);
-    line("TRUE pose distance error (cm)", &LevelResult::true_distance_cm);
-    line("EPnP pose vs truth (cm)", &LevelResult::pnp_true_distance_cm);
+    line("TRUE pose angle error (deg)", &align::Table2Row::true_angle_deg);
+    line("TRUE pose distance error (cm)", &align::Table2Row::true_distance_cm);
+    line("EPnP pose vs truth (cm)", &align::Table2Row::pnp_true_distance_cm);
     std::printf("%-34s", "TRUE co-location RMSE (cm)");
     for (const auto& r : rows)
-      std::printf(" | %-31.3f", r.true_rmse_cm);
+      std::printf(" | %-31.3f", r.row.true_rmse_cm);
     std::printf("\n");
   }
   if (rows.front().walk_frames > 0) {
@@ -201,7 +128,7 @@ void print_table(const std::vector<LevelResult>& rows, bool truth) {
   std::printf("%-34s", rows.front().walk_frames > 0 ? "sampled frames matched / all, time"
                                                     : "keyframes matched / all, time");
   for (const auto& r : rows)
-    std::printf(" | %5zu / %-5zu %10.1f s      ", r.matched, r.keyframes, r.ms / 1e3);
+    std::printf(" | %5zu / %-5zu %10.1f s      ", r.row.matched, r.row.views, r.ms / 1e3);
   std::printf("\n");
 }
 
@@ -236,17 +163,17 @@ void table2_verb(const Table2Args& a) {
   for (const auto& r : rows) {
     Json e{{"level", r.level},
            {"map", r.file.string()},
-           {"keyframes", r.keyframes},
-           {"matched", r.matched},
-           {"pose_angle_deg", stats_json(r.angle_deg)},
-           {"pose_distance_cm", stats_json(r.distance_cm)},
-           {"distance_2d_px", stats_json(r.offset_px)},
+           {"keyframes", r.row.views},
+           {"matched", r.row.matched},
+           {"pose_angle_deg", stats_json(r.row.angle_deg)},
+           {"pose_distance_cm", stats_json(r.row.distance_cm)},
+           {"distance_2d_px", stats_json(r.row.offset_px)},
            {"seconds", r.ms / 1e3}};
     if (!truth.empty()) {
-      e["true_pose_angle_deg"] = stats_json(r.true_angle_deg);
-      e["true_pose_distance_cm"] = stats_json(r.true_distance_cm);
-      e["epnp_vs_truth_cm"] = stats_json(r.pnp_true_distance_cm);
-      e["true_rmse_cm"] = r.true_rmse_cm;
+      e["true_pose_angle_deg"] = stats_json(r.row.true_angle_deg);
+      e["true_pose_distance_cm"] = stats_json(r.row.true_distance_cm);
+      e["epnp_vs_truth_cm"] = stats_json(r.row.pnp_true_distance_cm);
+      e["true_rmse_cm"] = r.row.true_rmse_cm;
     }
     if (r.walk_frames > 0) {
       e["walk_frames"] = r.walk_frames;

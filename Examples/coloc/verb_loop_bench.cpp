@@ -10,10 +10,10 @@
 
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
-#include "Examples/coloc/slam_run.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
+#include "slam/pipeline/pipeline.hpp"
 
 namespace coloc::cli {
 namespace {
@@ -38,7 +38,7 @@ struct ModeResult {
   double worst_loop_m = 0.0, worst_loop_deg = 0.0;
 };
 
-void add_run(ModeResult& m, const RunResult& r, const Trajectory& gt) {
+void add_run(ModeResult& m, const slam::pipeline::RunResult& r, const Trajectory& gt) {
   if (r.ate) m.ate_mm.push_back(1e3 * r.ate->translation.rmse);
   if (r.ate_online) m.online_mm.push_back(1e3 * r.ate_online->translation.rmse);
   const auto& loop = r.summary.loop;
@@ -95,8 +95,8 @@ void run_loop_bench(const LoopBenchArgs& args) {
     ModeResult on, off;
     for (int run = 0; run < args.runs; ++run) {
       for (const bool loop : {true, false}) {
-        const RunResult r = run_slam(*in.sequence, in.settings, vocabulary,
-                                     {.concurrent = args.concurrent, .loop = loop});
+        const slam::pipeline::RunResult r = slam::pipeline::run_slam(
+            *in.sequence, in.settings, vocabulary, {.concurrent = args.concurrent, .loop = loop});
         add_run(loop ? on : off, r, in.sequence->ground_truth());
         if (!args.json)
           std::fprintf(stderr, "%s run %d loop %s: ATE %.2f mm, loops %zu\n",
@@ -110,7 +110,7 @@ void run_loop_bench(const LoopBenchArgs& args) {
       continue;
     }
     std::printf("%s (%zu frames, %d runs each, %s)\n", dir.string().c_str(), in.sequence->size(),
-                args.runs, pacing_name({.concurrent = args.concurrent}));
+                args.runs, slam::pipeline::pacing_name({.concurrent = args.concurrent}));
     print_mode("on", on);
     print_mode("off", off);
   }

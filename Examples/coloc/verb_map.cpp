@@ -15,20 +15,20 @@
 
 #include "Examples/coloc/camera_source.hpp"
 #include "Examples/coloc/cli_common.hpp"
-#include "Examples/coloc/row_progress.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
-#include "Examples/coloc/slam_run.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "Examples/coloc/view_session.hpp"
 #include "slam/bow/vocabulary.hpp"
 #include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/progress.hpp"
+#include "slam/core/row_progress.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/dataset/slice.hpp"
 #include "slam/eval/trajectory_error.hpp"
 #include "slam/mapdb/mapdb.hpp"
+#include "slam/pipeline/pipeline.hpp"
 #include "slam/settings/settings.hpp"
 #include "slam/system/system.hpp"
 
@@ -89,10 +89,10 @@ MapInputs load_inputs(const MapArgs& args) {
 
 // --camera: frames from the live camera, through the same FrameSource as a sequence's.
 struct LiveResult {
-  RunResult run;
+  slam::pipeline::RunResult run;
   CaptureLosses lost;
 };
-LiveResult run_live(const MapArgs& args, const RunOptions& run,
+LiveResult run_live(const MapArgs& args, const slam::pipeline::RunOptions& run,
                     const std::function<void(const slam::system::System&)>& finished) {
   block_stop_signals();
   LiveInput live = open_live_input(args.camera, args.calibration, args.mode, args.config,
@@ -100,7 +100,8 @@ LiveResult run_live(const MapArgs& args, const RunOptions& run,
   const slam::bow::Vocabulary vocabulary = load_vocabulary(args.vocabulary);
   const SignalStop signals(*live.camera);
   const auto frames = live_frames(*live.camera, args.seconds);
-  RunResult r = run_slam(*frames, nullptr, live.settings, vocabulary, run, finished);
+  slam::pipeline::RunResult r =
+      slam::pipeline::run_slam(*frames, nullptr, live.settings, vocabulary, run, finished);
   return {std::move(r), end_live(*live.camera)};
 }
 
@@ -115,7 +116,7 @@ void run_map_live(const MapArgs& args) {
                [&](const slam::system::System& slam) {
                  if (!args.save.empty()) save_finished_map(slam, args.save, args.json);
                });
-  const RunResult& r = live.run;
+  const slam::pipeline::RunResult& r = live.run;
   write_tum_trajectory(args.trajectory, r.trajectory);
   if (!args.keyframes.empty()) write_tum_trajectory(args.keyframes, r.keyframes);
   if (args.json)
@@ -132,7 +133,7 @@ void run_map_live(const MapArgs& args) {
 }
 
 // The finished run on stdout: a JSON summary (--json) or the summary text with the figures.
-void print_map_result(const MapArgs& args, const RunResult& r) {
+void print_map_result(const MapArgs& args, const slam::pipeline::RunResult& r) {
   const auto& s = r.summary;
   if (args.json) {
     print_json({{"frames", s.frames},
@@ -196,18 +197,19 @@ void run_map(const MapArgs& given) {
   std::unique_ptr<LiveSystemView> live;
   if (args.view.enabled) server = start_view_server(args.view, {}, false);
   if (server) live = std::make_unique<LiveSystemView>(*server, args.view, args.sequence);
-  RunOptions run{.sequential = args.sequential,
-                 .realtime = args.realtime,
-                 .concurrent = args.concurrent,
-                 .global_ba = !args.no_global_ba,
-                 .loop = !args.no_loop,
-                 .imu = !args.no_imu,
-                 .load = args.load};
+  slam::pipeline::RunOptions run{.sequential = args.sequential,
+                                 .realtime = args.realtime,
+                                 .concurrent = args.concurrent,
+                                 .global_ba = !args.no_global_ba,
+                                 .loop = !args.no_loop,
+                                 .imu = !args.no_imu,
+                                 .load = args.load};
   if (live) {
     run.on_start = [&](slam::system::System& s) { live->attach(s); };
     run.on_stop = [&] { live->detach(); };
   }
-  const RunResult r = run_slam(*in.slam.sequence, in.slam.settings, in.vocabulary, run,
+  const slam::pipeline::RunResult r =
+      slam::pipeline::run_slam(*in.slam.sequence, in.slam.settings, in.vocabulary, run,
                                [&](const slam::system::System& slam) {
                                  if (live) live->finish(slam);
                                  if (!args.save.empty())
@@ -232,23 +234,23 @@ void run_bench(const MapArgs& args) {
   const MapInputs in = load_inputs(args);
   const auto& [config, settings, sequence] = in.slam;
   const auto& vocabulary = in.vocabulary;
-  const RunOptions mode{
+  const slam::pipeline::RunOptions mode{
       .sequential = args.sequential, .realtime = args.realtime, .concurrent = args.concurrent};
   std::printf("sequence %s (%zu frames), settings %s, %s\n", args.sequence.string().c_str(),
-              sequence->size(), config.string().c_str(), pacing_name(mode));
+              sequence->size(), config.string().c_str(), slam::pipeline::pacing_name(mode));
   std::printf("%4s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %7s %5s %4s %8s %8s %5s %8s %8s\n",
               "run", "extr_med", "extr_p99", "pose_med", "pose_p99", "lmap_med", "lmap_p99",
               "kf_med", "kf_p99", "total_med", "total_p99", "ba_med", "lost", "kfs", "ate_mm",
               "gba_mm", "loops", "vis_mm", "grav_mm");
   std::vector<double> ate_online, ate_final, ate_vision, ate_gravity;
   for (int run = 0; run < args.runs; ++run) {
-    const RunResult r = run_slam(*sequence, settings, vocabulary,
-                                 {.sequential = args.sequential,
-                                  .realtime = args.realtime,
-                                  .concurrent = args.concurrent,
-                                  .loop = !args.no_loop,
-                                  .imu = !args.no_imu,
-                                  .compare_imu = true});
+    const slam::pipeline::RunResult r = slam::pipeline::run_slam(*sequence, settings, vocabulary,
+                                                                 {.sequential = args.sequential,
+                                                                  .realtime = args.realtime,
+                                                                  .concurrent = args.concurrent,
+                                                                  .loop = !args.no_loop,
+                                                                  .imu = !args.no_imu,
+                                                                  .compare_imu = true});
     if (r.ate_online) ate_online.push_back(1e3 * r.ate_online->translation.rmse);
     if (r.ate) ate_final.push_back(1e3 * r.ate->translation.rmse);
     if (r.ate_vision) ate_vision.push_back(1e3 * r.ate_vision->translation.rmse);

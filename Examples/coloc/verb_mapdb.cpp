@@ -1,7 +1,6 @@
 // coloc mapdb info|verify|export-trajectory|export-ply MAP.db: the map database (slam/mapdb)
 // from the command line. Outputs are written to a temporary and renamed into place.
 
-#include <bit>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -10,12 +9,13 @@
 #include <sstream>
 
 #include "Examples/coloc/cli_common.hpp"
-#include "Examples/coloc/row_progress.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/ply_writer.hpp"
 #include "slam/core/progress.hpp"
+#include "slam/core/row_progress.hpp"
 #include "slam/core/trajectory.hpp"
 #include "slam/mapdb/mapdb.hpp"
 
@@ -115,37 +115,27 @@ void export_trajectory(const fs::path& file, const fs::path& out) {
 }
 
 void export_ply(const fs::path& file, const fs::path& out, std::uint32_t min_observations) {
-  AtomicFile output(out);
   const mapdb::MapInfo info = mapdb::read_map_info(file);
-  std::ofstream f(output.temp_path(), std::ios::binary);
-  f << "ply\nformat binary_little_endian 1.0\ncomment coloc map points of "
-    << file.filename().string() << " in frame '" << info.metadata.frame_name
-    << "' (metres)\nelement vertex ";
-  const auto count_pos = f.tellp();
-  f << "00000000000000000000\nproperty float x\nproperty float y\nproperty float z\n"
-       "property float nx\nproperty float ny\nproperty float nz\n"
-       "property uint observations\nend_header\n";
+  PlyWriter ply(out,
+                {{"x", PlyType::kFloat},
+                 {"y", PlyType::kFloat},
+                 {"z", PlyType::kFloat},
+                 {"nx", PlyType::kFloat},
+                 {"ny", PlyType::kFloat},
+                 {"nz", PlyType::kFloat},
+                 {"observations", PlyType::kUint}},
+                "coloc map points of " + file.filename().string() + " in frame '" +
+                    info.metadata.frame_name + "' (metres)");
   Progress progress("export-ply", info.counts.points);
-  std::uint64_t written = 0;
   mapdb::for_each_point(file, [&](const mapdb::PointRecord& p) {
     progress.advance();
     if (p.observations < min_observations) return;
-    const float v[6] = {static_cast<float>(p.position.x()), static_cast<float>(p.position.y()),
-                        static_cast<float>(p.position.z()), static_cast<float>(p.normal.x()),
-                        static_cast<float>(p.normal.y()),   static_cast<float>(p.normal.z())};
-    static_assert(std::endian::native == std::endian::little, "PLY written as little-endian");
-    f.write(reinterpret_cast<const char*>(v), sizeof v);
-    f.write(reinterpret_cast<const char*>(&p.observations), sizeof p.observations);
-    ++written;
+    const Eigen::Vector3f x = p.position.cast<float>(), n = p.normal.cast<float>();
+    ply.add(x.x(), x.y(), x.z(), n.x(), n.y(), n.z(), p.observations);
   });
   progress.finish();
-  char count[21];
-  std::snprintf(count, sizeof count, "%020llu", static_cast<unsigned long long>(written));
-  f.seekp(count_pos);
-  f.write(count, 20);
-  f.close();
-  if (!f) throw Error("cannot write the PLY file", {out.string()});
-  output.commit();
+  ply.commit();
+  const std::uint64_t written = ply.vertices();
   std::cout << "wrote " << written << " map points to " << out.string() << "\n";
 }
 

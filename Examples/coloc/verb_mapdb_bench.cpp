@@ -16,10 +16,10 @@
 #include <thread>
 
 #include "Examples/coloc/cli_common.hpp"
-#include "Examples/coloc/row_progress.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "slam/core/progress.hpp"
+#include "slam/core/row_progress.hpp"
 #include "slam/mapdb/mapdb.hpp"
 #include "slam/mapdb/synthetic_map.hpp"
 

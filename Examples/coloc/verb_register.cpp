@@ -13,7 +13,6 @@
 #include <memory>
 
 #include "Examples/coloc/cli_common.hpp"
-#include "Examples/coloc/row_progress.hpp"
 #include "Examples/coloc/scan_figures.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
 #include "Examples/coloc/verbs.hpp"
@@ -23,6 +22,7 @@
 #include "registration/render/renderer.hpp"
 #include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/row_progress.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/mapdb/mapdb.hpp"
 

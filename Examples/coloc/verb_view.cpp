@@ -14,7 +14,6 @@
 #include <set>
 
 #include "Examples/coloc/cli_common.hpp"
-#include "Examples/coloc/row_progress.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "Examples/coloc/view_session.hpp"
@@ -22,6 +21,7 @@
 #include "registration/align/scan_cloud.hpp"
 #include "registration/align/slam_markers.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/row_progress.hpp"
 #include "slam/mapdb/mapdb.hpp"
 #include "slam/view/scene.hpp"
 

@@ -8,10 +8,10 @@
 
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/slam_inputs.hpp"
-#include "Examples/coloc/slam_run.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "Examples/coloc/view_session.hpp"
 #include "slam/core/error.hpp"
+#include "slam/pipeline/pipeline.hpp"
 #include "slam/view/client.hpp"
 
 namespace coloc::cli {
@@ -42,7 +42,7 @@ struct ModeResult {
 
 ModeResult run_mode(const ViewBenchArgs& a, const SlamInputs& in,
                     const slam::bow::Vocabulary& vocabulary, Mode mode) {
-  RunOptions run{.sequential = a.sequential, .concurrent = !a.sequential};
+  slam::pipeline::RunOptions run{.sequential = a.sequential, .concurrent = !a.sequential};
   ModeResult out;
   std::unique_ptr<slam::view::ViewServer> server;
   std::unique_ptr<LiveSystemView> live;
@@ -60,8 +60,8 @@ ModeResult run_mode(const ViewBenchArgs& a, const SlamInputs& in,
     };
     run.on_stop = [&] { live->detach(); };
   }
-  const RunResult r =
-      run_slam(*in.sequence, in.settings, vocabulary, run, [&](const slam::system::System& s) {
+  const slam::pipeline::RunResult r = slam::pipeline::run_slam(
+      *in.sequence, in.settings, vocabulary, run, [&](const slam::system::System& s) {
         if (live) live->finish(s);
       });
   out.ms = r.summary.total_ms;

@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "Examples/coloc/cli_common.hpp"
+#include "Examples/coloc/slam_inputs.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "slam/bow/place_recall.hpp"
 #include "slam/bow/vocabulary.hpp"
@@ -130,7 +131,7 @@ void run_info(const std::string& file, bool json) {
 // bench orb
 
 struct BenchOrbArgs {
-  std::string data = default_data_dir().string();
+  std::string data = recordings_dir().string();
   int repeat = 3;
   bool json = false;
 };
@@ -234,8 +235,8 @@ void run_bench_orb(const BenchOrbArgs& a) {
 // bench bow
 
 struct BenchBowArgs {
-  std::string data = default_data_dir().string();
-  std::string vocabulary = "Vocabulary/coloc_orb_k10_L5.cvoc";
+  std::string data = recordings_dir().string();
+  std::string vocabulary;  // empty: the shipped one
   slam::bow::PlaceRecallOptions recall;
   bool json = false;
 };
@@ -257,7 +258,7 @@ void print_bow_recall(const BenchBowArgs& a, std::size_t frames, std::uint32_t w
   std::printf(
       "place recognition on 7-Scenes (%zu frames), vocabulary %s (%u words, loaded in "
       "%.0f ms)\n",
-      frames, a.vocabulary.c_str(), words, load_ms);
+      frames, a.vocabulary.empty() ? "(shipped)" : a.vocabulary.c_str(), words, load_ms);
   std::printf(
       "queries: every %zu-th frame (%zu; %zu with a true match in the database); "
       "database: the other %zu frames, minus +-%zu around each query\n",
@@ -277,7 +278,7 @@ void run_bench_bow(const BenchBowArgs& a) {
     throw Error("every 7-Scenes frame needs its pose file (frame-NNNNNN.pose.txt)",
                 {.file = sequence->folder().string()});
   Stopwatch load_watch;
-  const auto vocabulary = slam::bow::Vocabulary::load(a.vocabulary);
+  const auto vocabulary = load_vocabulary(a.vocabulary);
   const double load_ms = load_watch.elapsed_ms();
 
   OrbExtractor extractor;
@@ -335,7 +336,8 @@ void add_vocab_verb(CLI::App& app, CLI::App& bench) {
   auto orb_args = std::make_shared<BenchOrbArgs>();
   CLI::App& orb = *bench.add_subcommand(
       "orb", "ORB extraction: ours vs cv::ORB, time (median/p99) and 16x12 grid coverage");
-  orb.add_option("--data", orb_args->data, "Shared data folder")->capture_default_str();
+  orb.add_option("--data", orb_args->data, "Recordings folder (default $COLOC_DATA)")
+      ->capture_default_str();
   orb.add_option("--repeat", orb_args->repeat, "Runs per image")->capture_default_str();
   orb.add_flag("--json", orb_args->json, "Machine-readable output on stdout");
   orb.callback([orb_args] { run_bench_orb(*orb_args); });
@@ -343,9 +345,9 @@ void add_vocab_verb(CLI::App& app, CLI::App& bench) {
   auto bow_args = std::make_shared<BenchBowArgs>();
   CLI::App& bow = *bench.add_subcommand(
       "bow", "Place recognition recall@1/@5 on 7-Scenes (sevenscenes_600f) with a vocabulary");
-  bow.add_option("--data", bow_args->data, "Shared data folder")->capture_default_str();
-  bow.add_option("--vocabulary", bow_args->vocabulary, "Vocabulary file")
-      ->capture_default_str()
+  bow.add_option("--data", bow_args->data, "Recordings folder (default $COLOC_DATA)")
+      ->capture_default_str();
+  bow.add_option("--vocabulary", bow_args->vocabulary, "Vocabulary file (default: the shipped one)")
       ->check(CLI::ExistingFile);
   bow.add_option("--query-step", bow_args->recall.query_step, "Every n-th frame is a query")
       ->capture_default_str();

@@ -34,7 +34,7 @@ std::unique_ptr<slam::view::ViewServer> start_view_server(const ViewArgs& args,
   slam::view::ViewServerOptions options;
   options.bind = args.bind;
   options.port = args.port;
-  options.web_root = args.web_root.empty() ? fs::path(COLOC_VIEW_WEB_DIR) : args.web_root;
+  options.web_root = args.web_root.empty() ? data_dir() / "web" : args.web_root;
   options.report_dir = report;
   try {
     auto server = std::make_unique<slam::view::ViewServer>(options);

@@ -7,12 +7,29 @@ set(COLOC_WARNINGS -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wcast-a
                    -Wno-missing-field-initializers)
 
 # coloc_library(NAME SOURCES ...): a static library of ours. Headers are included by their path
-# from the repository root ("slam/core/se3.hpp"), as COLMAP does.
+# from the repository root ("slam/core/se3.hpp"), as COLMAP does; installed, from
+# include/coloc. Libraries outside tests/ are installed and exported (coloc_export).
 function(coloc_library name)
   add_library(${name} STATIC ${ARGN})
   add_library(coloc::${name} ALIAS ${name})
   coloc_apply_settings(${name})
-  target_include_directories(${name} PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>)
+  coloc_public_includes(${name})
+  string(FIND "${CMAKE_CURRENT_SOURCE_DIR}/" "${PROJECT_SOURCE_DIR}/tests/" in_tests)
+  if(NOT in_tests EQUAL 0)
+    coloc_export(${name})
+  endif()
+endfunction()
+
+# coloc_public_includes(TARGET): the include root for users, in the build and installed.
+function(coloc_public_includes target)
+  target_include_directories(${target} PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>
+                                              $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}/coloc>)
+endfunction()
+
+# coloc_export(TARGET...): installed with the exported CMake package (find_package(coloc)
+# gives coloc::TARGET; ColocInstall.cmake writes the rules once every target is known).
+function(coloc_export)
+  set_property(GLOBAL APPEND PROPERTY COLOC_EXPORTED_TARGETS ${ARGN})
 endfunction()
 
 function(coloc_apply_settings target)
@@ -67,4 +84,20 @@ function(coloc_cli_test name script)
            COMMAND ${COLOC_PYTHON3} ${CMAKE_CURRENT_SOURCE_DIR}/${script}
                    --coloc $<TARGET_FILE:coloc> ${ARGN})
   set_tests_properties(${name} PROPERTIES SKIP_RETURN_CODE 77)
+endfunction()
+
+# The build tree's copy of what is installed under share/coloc (COLOC_STAGE_DIR), so the CLI
+# finds its data the same way in both: coloc_stage_data(TARGET SOURCE DEST [SOURCE DEST]...)
+# copies each SOURCE to COLOC_STAGE_DIR/DEST whenever it changes.
+set(COLOC_STAGE_DIR ${CMAKE_BINARY_DIR}/share/coloc)
+function(coloc_stage_data target)
+  set(outputs "")
+  while(ARGN)
+    list(POP_FRONT ARGN source dest)
+    list(APPEND outputs ${COLOC_STAGE_DIR}/${dest})
+    add_custom_command(OUTPUT ${COLOC_STAGE_DIR}/${dest}
+                       COMMAND ${CMAKE_COMMAND} -E copy ${source} ${COLOC_STAGE_DIR}/${dest}
+                       DEPENDS ${source} VERBATIM)
+  endwhile()
+  add_custom_target(${target} ALL DEPENDS ${outputs})
 endfunction()

@@ -1,6 +1,6 @@
 #pragma once
 // Hand-eye registration of a VR system to a camera (AX = XB), after An et al. 2023,
-// "Integrating heterogeneous VR systems into physical space" (../shared/papers/an2023_*).
+// "Integrating heterogeneous VR systems into physical space" (docs/design.md lists the papers).
 //
 // Frames. Every pose b_from_a maps points from frame a to frame b (p_b = b_from_a * p_a, column
 // vectors); metres and radians throughout.

@@ -7,6 +7,7 @@
 #include "registration/twin/scan.hpp"
 #include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/ply_writer.hpp"
 
 namespace coloc::registration::twin {
 namespace {
@@ -32,13 +33,10 @@ std::string guid(std::uint64_t seed, std::uint64_t kind, std::uint64_t index) {
 struct ScanFileWriter::Impl {
   std::unique_ptr<AtomicFile> e57_file;  // the E57 is written under its temporary name
   std::unique_ptr<e57::Writer> e57;
-  std::filesystem::path ply_path;
-  std::filesystem::path ply_tmp;
-  std::ofstream ply_body;
+  std::unique_ptr<PlyWriter> ply;  // world-frame float xyz + RGB
   std::size_t points = 0;
   std::uint64_t seed = 0;
   int jpeg_quality = 92;
-  bool closed = false;
 };
 
 ScanFileWriter::ScanFileWriter(const std::filesystem::path& e57_path,
@@ -51,30 +49,27 @@ ScanFileWriter::ScanFileWriter(const std::filesystem::path& e57_path,
   wo.library_version = "coloc twin generator";
   impl_->e57_file = std::make_unique<AtomicFile>(e57_path);
   impl_->e57 = std::make_unique<e57::Writer>(impl_->e57_file->temp_path(), wo);
-  impl_->ply_path = ply_path;
-  impl_->ply_tmp = ply_path;
-  impl_->ply_tmp += ".body";
-  impl_->ply_body.open(impl_->ply_tmp, std::ios::binary);
-  if (!impl_->ply_body) throw Error("cannot write", {.file = impl_->ply_tmp.string()});
+  impl_->ply = std::make_unique<PlyWriter>(ply_path,
+                                           std::vector<PlyProperty>{{"x", PlyType::kFloat},
+                                                                    {"y", PlyType::kFloat},
+                                                                    {"z", PlyType::kFloat},
+                                                                    {"red", PlyType::kUchar},
+                                                                    {"green", PlyType::kUchar},
+                                                                    {"blue", PlyType::kUchar}},
+                                           "coloc digital twin scan, world frame, metres");
   impl_->seed = seed;
   impl_->jpeg_quality = jpeg_quality;
 }
 
-ScanFileWriter::~ScanFileWriter() {
-  if (!impl_->closed) {
-    impl_->ply_body.close();
-    std::error_code ec;
-    std::filesystem::remove(impl_->ply_tmp, ec);
-  }
-}
+// Unclosed: the temporaries of both files are removed, their targets untouched.
+ScanFileWriter::~ScanFileWriter() = default;
 
 void ScanFileWriter::add(const ScanStation& st) {
   add_e57(st);
-  // PLY body: world-frame float xyz + RGB.
   for (std::size_t i = 0; i < st.points.size(); ++i) {
     const Eigen::Vector3f p = (st.world_from_station * st.points[i]).cast<float>();
-    impl_->ply_body.write(reinterpret_cast<const char*>(p.data()), 3 * sizeof(float));
-    impl_->ply_body.write(reinterpret_cast<const char*>(st.colours[i].data()), 3);
+    const auto& c = st.colours[i];
+    impl_->ply->add(p.x(), p.y(), p.z(), c[0], c[1], c[2]);
   }
   impl_->points += st.points.size();
 }
@@ -140,22 +135,7 @@ void ScanFileWriter::add_e57(const ScanStation& st) {
 std::size_t ScanFileWriter::close() {
   impl_->e57->close();
   impl_->e57_file->commit();
-  impl_->ply_body.close();
-  // Header + body into a temporary file renamed when complete: a failure never leaves a
-  // half-written PLY under the final name.
-  {
-    AtomicOutput out(impl_->ply_path, true, std::ios::binary | std::ios::trunc);
-    out << "ply\nformat binary_little_endian 1.0\ncomment coloc digital twin scan, world frame, "
-           "metres\nelement vertex "
-        << impl_->points
-        << "\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\n"
-           "property uchar green\nproperty uchar blue\nend_header\n";
-    std::ifstream body(impl_->ply_tmp, std::ios::binary);
-    out << body.rdbuf();
-    out.commit();
-  }
-  std::filesystem::remove(impl_->ply_tmp);
-  impl_->closed = true;
+  impl_->ply->commit();
   return impl_->points;
 }
 

@@ -67,6 +67,9 @@ struct SequenceOptions {
   double depth_scale = 0.0;
   // TUM without associations.txt: maximal rgb/depth time difference (seconds).
   double max_association_dt = 0.02;
+  // TUM: this associations file ("t_rgb rgb t_depth depth", paths relative to the folder)
+  // instead of the folder's own (ORB-SLAM's rgbd_tum takes it as an argument).
+  std::filesystem::path associations;
 };
 
 // Detects the format from the folder's files (rgb.txt -> TUM, frame-000000.color.* ->

@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/dataset/text_table.hpp"
 
@@ -44,7 +45,10 @@ class TumSequence final : public Sequence {
  public:
   TumSequence(const std::filesystem::path& dir, const SequenceOptions& options)
       : Sequence(dir), dir_(dir), scale_(options.depth_scale > 0.0 ? options.depth_scale : 5000.0) {
-    if (std::filesystem::exists(dir / "associations.txt")) {
+    if (!options.associations.empty()) {
+      check_input_file(options.associations, "associations file");
+      read_associations(options.associations);
+    } else if (std::filesystem::exists(dir / "associations.txt")) {
       read_associations(dir / "associations.txt");
     } else {
       associate(options.max_association_dt);

@@ -11,8 +11,8 @@
 
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
-#include "slam/system/options.hpp"
-#include "slam/system/tuning.hpp"
+#include "slam/tuning/system_options.hpp"
+#include "slam/tuning/tuning.hpp"
 
 namespace coloc::slam::localize {
 

@@ -70,7 +70,7 @@ struct LocalizerOptions {
 };
 
 // The options a camera settings file gives: ORBextractor.*, Camera.RGB and the
-// Coloc.tracking.* keys (slam/system/tuning.hpp). Throws coloc::Error naming the file and key.
+// Coloc.tracking.* keys (slam/tuning/tuning.hpp). Throws coloc::Error naming the file and key.
 LocalizerOptions options_from_settings(const settings::Settings& settings);
 
 struct LocalizationResult {

@@ -15,21 +15,6 @@
 
 namespace coloc::slam::mapping {
 
-void LocalMappingOptions::check() const {
-  if (queue_capacity < 1) throw Error("LocalMappingOptions.queue_capacity must be >= 1");
-  if (!(fusion_radius > 0.0)) throw Error("LocalMappingOptions.fusion_radius must be > 0");
-  if (!(redundancy > 0.0 && redundancy <= 1.0))
-    throw Error("LocalMappingOptions.redundancy must be in (0, 1]");
-  if (!(readout_step > 0.0)) throw Error("LocalMappingOptions.readout_step must be > 0");
-  if (!(readout_publish >= 0.0)) throw Error("LocalMappingOptions.readout_publish must be >= 0");
-  if (!(readout_max > 0.0 && readout_max < 1.0))
-    throw Error("LocalMappingOptions.readout_max must be in (0, 1) seconds");
-  if (!(readout_start >= 0.0 && readout_start <= 1.0))
-    throw Error(
-        "LocalMappingOptions.readout_start must be in [0, 1] (a share of the frame interval)");
-  ba.check();
-}
-
 LocalMapper::LocalMapper(map::SharedMap& map, const bow::Vocabulary& vocabulary,
                          const markers::MarkerDetector* detector, double marker_size,
                          LocalMappingOptions options, map::KeyframeSink* output)

@@ -285,6 +285,16 @@ Settings read_settings(const std::string& text, const std::filesystem::path& pat
   s.gyro_random_walk = keys.number("IMU.GyroWalk");
   if (s.gyro_random_walk && !(*s.gyro_random_walk > 0.0 && *s.gyro_random_walk < 1.0))
     keys.fail("IMU.GyroWalk", "must be in (0, 1) rad/s^2/sqrt(Hz)");
+  // ORB-SLAM3's other IMU keys (its IMU-RGBD files, and the twin's camera.yaml, which ORB-SLAM3
+  // must also run with): checked, and known, but not used. coloc's gravity term is limited by
+  // the walk's own accelerations, far above the accelerometer's noise, and tracking makes no
+  // keyframe while lost.
+  for (const char* key : {"IMU.NoiseAcc", "IMU.AccWalk", "IMU.Frequency"}) {
+    if (const auto v = keys.number(key); v && !(std::isfinite(*v) && *v > 0.0))
+      keys.fail(key, "must be a positive number");
+  }
+  if (const auto v = keys.number("IMU.InsertKFsWhenLost"); v && *v != 0.0 && *v != 1.0)
+    keys.fail("IMU.InsertKFsWhenLost", "must be 0 or 1");
   s.depth = read_depth(keys, s.file_version, intrinsic_matrix(s.camera)(0, 0));
   s.orb = read_orb(keys);
   s.markers.dictionary = keys.text("Markers.dictionary").value_or(s.markers.dictionary);

@@ -7,7 +7,7 @@
 //  - both: Camera.type ("PinHole" | "KannalaBrandt8"), Camera.width/height, Camera.fps,
 //    Camera.RGB, ORBextractor.*; Viewer.* is ignored.
 // coloc's own additions live in the same file under their own prefixes: Camera.readoutTime,
-// Markers.*, and Coloc.<option> for the SLAM options users tune (slam/system/tuning.hpp names
+// Markers.*, and Coloc.<option> for the SLAM options users tune (slam/tuning/tuning.hpp names
 // them; an unknown one is an error there). ORB-SLAM3's System.LoadAtlasFromFile and
 // System.SaveAtlasToFile name the map database (slam/mapdb) to continue and to save, and
 // IMU.T_b_c1, IMU.NoiseGyro and IMU.GyroWalk place and describe an IMU. Any other key

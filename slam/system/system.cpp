@@ -10,7 +10,7 @@
 
 #include "markers/detector.hpp"
 #include "slam/core/error.hpp"
-#include "slam/system/tuning.hpp"
+#include "slam/tuning/tuning.hpp"
 
 namespace coloc::slam::system {
 
@@ -61,7 +61,7 @@ System::System(const settings::Settings& settings, const bow::Vocabulary& vocabu
     d.dictionary = settings.markers.dictionary;
     detector_ = std::make_unique<markers::MarkerDetector>(d);
   }
-  spdlog::info("slam options:\n{}", options_.describe());
+  spdlog::debug("slam options (coloc -v shows them):\n{}", options_.describe());
   // No readout in the settings: unknown, so estimated (a global-shutter camera says 0).
   shared_->estimate_readout = !settings.readout_time && options_.mapping.estimate_readout;
   if (shared_->estimate_readout)

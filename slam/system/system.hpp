@@ -21,8 +21,8 @@
 #include "slam/mapping/local_mapper.hpp"
 #include "slam/settings/settings.hpp"
 #include "slam/system/frame_observer.hpp"
-#include "slam/system/options.hpp"
 #include "slam/tracking/tracker.hpp"
+#include "slam/tuning/system_options.hpp"
 
 namespace coloc::markers {
 class MarkerDetector;
@@ -48,7 +48,7 @@ class System {
  public:
   // Needs settings with depth (Camera.bf, ThDepth). Without Camera.width/height the first
   // image gives the size; later images of another size are rejected (coloc::Error naming
-  // Camera.width). The settings' Coloc.* keys override `options` (slam/system/tuning.hpp) and
+  // Camera.width). The settings' Coloc.* keys override `options` (slam/tuning/tuning.hpp) and
   // Camera.RGB sets tracking.rgb_input. `vocabulary` must outlive the System.
   System(const settings::Settings& settings, const bow::Vocabulary& vocabulary,
          SystemOptions options = {});

@@ -1,5 +1,5 @@
 #pragma once
-// Loader for the ViSP Franka hand-eye recordings (../shared/data/handeye_visp_franka): eye-to-hand
+// Loader for the ViSP Franka hand-eye recordings ($COLOC_DATA/handeye_visp_franka): eye-to-hand
 // = a fixed camera viewing an AprilTag 36h11 on the robot's end-effector, the same geometry as a
 // marker on a VR controller. Mapping onto handeye.hpp's frames: "vr" = robot base, "device" =
 // end-effector, "marker" = the tag, "camera" = the fixed camera. The robot poses

@@ -2,7 +2,7 @@
 #include <gtest/gtest.h>
 
 #include "slam/core/error.hpp"
-#include "slam/system/tuning.hpp"
+#include "slam/tuning/tuning.hpp"
 
 namespace coloc::slam::system {
 namespace {

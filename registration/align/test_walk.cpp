@@ -1,16 +1,16 @@
-#include "Examples/coloc/table2_walk.hpp"
+#include "registration/align/test_walk.hpp"
 
 #include <spdlog/spdlog.h>
 
 #include <opencv2/imgproc.hpp>
 #include <optional>
 
-#include "Examples/coloc/slam_inputs.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/progress.hpp"
+#include "slam/dataset/sequence.hpp"
 #include "slam/localize/localizer.hpp"
 
-namespace coloc::cli {
+namespace coloc::registration::align {
 namespace {
 
 namespace fs = std::filesystem;
@@ -29,12 +29,15 @@ cv::Mat to_grey(const cv::Mat& image, bool rgb) {
 
 LocalizedWalk localize_walk(const fs::path& map_path, const slam::bow::Vocabulary& vocabulary,
                             const WalkOptions& o) {
-  if (o.every == 0) throw Error("must be >= 1", {.field = "--every"});
+  if (o.every == 0) throw Error("must be >= 1", {.field = "every"});
   const auto map = slam::localize::load_localization_map(map_path, vocabulary);
   const settings::Settings settings = o.config.empty()
                                           ? slam::localize::settings_saved_in(*map, map_path)
                                           : settings::load_settings(o.config);
-  const auto sequence = open_sequence_for(o.sequence, settings);
+  // The settings' DepthMapFactor says how the walk's raw depth becomes metres.
+  dataset::SequenceOptions sequence_options;
+  if (settings.depth) sequence_options.depth_scale = settings.depth->depth_map_factor;
+  const auto sequence = dataset::open_sequence(o.sequence, sequence_options);
   const slam::localize::LocalizerOptions options = slam::localize::options_from_settings(settings);
   slam::localize::Localizer localizer(*map, vocabulary, settings, options);
   slam::features::OrbExtractor extractor(options.extractor);
@@ -64,12 +67,11 @@ LocalizedWalk localize_walk(const fs::path& map_path, const slam::bow::Vocabular
   }
   progress.finish();
   if (walk.localized == 0)
-    throw Error("no frame of the test walk localized in the map",
-                {.file = o.sequence.string(), .field = "--sequence"});
+    throw Error("no frame of the test walk localized in the map", {.file = o.sequence.string()});
   // Views are built once `features` stops growing (they point into it).
   for (std::size_t k = 0; k < walk.features.size(); ++k)
     walk.views.push_back({KeyframeId{}, sampled_times[k], &walk.features[k], sampled_poses[k]});
   return walk;
 }
 
-}  // namespace coloc::cli
+}  // namespace coloc::registration::align

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "slam/settings/settings.hpp"
-#include "slam/system/options.hpp"
+#include "slam/tuning/system_options.hpp"
 
 namespace coloc::slam::system {
 

@@ -1,4 +1,4 @@
-#include "slam/system/tuning.hpp"
+#include "slam/tuning/tuning.hpp"
 
 #include <array>
 #include <cmath>

@@ -1,14 +1,14 @@
-#include "Examples/coloc/slam_run.hpp"
+#include "slam/pipeline/pipeline.hpp"
 
 #include <spdlog/spdlog.h>
 
 #include <memory>
 
-#include "Examples/coloc/row_progress.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/progress.hpp"
+#include "slam/core/row_progress.hpp"
 
-namespace coloc::cli {
+namespace coloc::slam::pipeline {
 namespace {
 
 // None without ground truth, or when the poses cannot be aligned (a few keyframes on a line):
@@ -28,8 +28,8 @@ std::optional<eval::AteResult> ate_of(const dataset::Sequence& sequence, const T
 constexpr std::size_t kReadoutSettleKeyframes = 30;
 
 // The gyro's noise figures as the settings give them (ORB-SLAM3's IMU.NoiseGyro, IMU.GyroWalk).
-slam::mapping::GyroOptions gyro_options(const settings::Settings& settings) {
-  slam::mapping::GyroOptions o;
+mapping::GyroOptions gyro_options(const settings::Settings& settings) {
+  mapping::GyroOptions o;
   o.model.noise_density = settings.gyro_noise_density.value_or(o.model.noise_density);
   o.model.random_walk = settings.gyro_random_walk.value_or(o.model.random_walk);
   return o;
@@ -44,7 +44,7 @@ const char* pacing_name(const RunOptions& run) {
 
 RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& settings,
                    const slam::bow::Vocabulary& vocabulary, const RunOptions& run,
-                   const std::function<void(const slam::system::System&)>& finished) {
+                   const std::function<void(const system::System&)>& finished) {
   auto frames = dataset::frames_of(sequence);
   if (run.realtime) frames = dataset::paced(std::move(frames));
   RunOptions options = run;
@@ -56,20 +56,19 @@ RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& 
 RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
                    const settings::Settings& settings, const slam::bow::Vocabulary& vocabulary,
                    const RunOptions& run,
-                   const std::function<void(const slam::system::System&)>& finished) {
-  slam::system::SystemOptions options;
+                   const std::function<void(const system::System&)>& finished) {
+  system::SystemOptions options;
   options.tracking.wait_for_sink = run.sequential;
   if (run.source_waits) options.tracking.readout_settle_keyframes = kReadoutSettleKeyframes;
   options.loop.enabled = run.loop;
-  std::unique_ptr<slam::system::System> system;
+  std::unique_ptr<system::System> owned;
   {
-    RowProgress progress("loading the map", false);
-    system =
-        slam::system::open_system(settings, vocabulary, options, run.load, progress.callback());
-    progress.finish();
+    RowProgress loading("loading the map", !run.progress);
+    owned = system::open_system(settings, vocabulary, options, run.load, loading.callback());
+    loading.finish();
   }
-  slam::system::System& slam = *system;
-  // Runs on_stop before `system` goes, however the run ends.
+  system::System& slam = *owned;
+  // Runs on_stop before `owned` goes, however the run ends.
   struct Detach {
     const std::function<void()>& on_stop;
     ~Detach() {
@@ -77,7 +76,7 @@ RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
     }
   } detach{run.on_stop};
   if (run.on_start) run.on_start(slam);
-  Progress progress("slam", frames.remaining());
+  Progress progress("slam", frames.remaining(), !run.progress);
   RunResult r;
   std::size_t tracked = 0, unusable = 0;
   while (auto frame = frames.next()) {
@@ -107,8 +106,8 @@ RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
   r.ate_online = ate_of_run(slam.trajectory());
   if (run.global_ba) {
     // In a continued map only this recording's keyframes take the IMU (System::optimize_map).
-    std::optional<slam::mapping::GravityMeasurements> gravity;
-    std::optional<slam::mapping::GyroMeasurements> gyro;
+    std::optional<mapping::GravityMeasurements> gravity;
+    std::optional<mapping::GyroMeasurements> gyro;
     if (run.imu && truth && !truth->imu().empty() && settings.imu_from_cam) {
       gravity.emplace(truth->imu(), *settings.imu_from_cam, slam.trajectory());
       gyro.emplace(truth->imu(), *settings.imu_from_cam, gyro_options(settings));
@@ -131,4 +130,4 @@ RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
   return r;
 }
 
-}  // namespace coloc::cli
+}  // namespace coloc::slam::pipeline

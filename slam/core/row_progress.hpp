@@ -9,7 +9,7 @@
 
 #include "slam/core/progress.hpp"
 
-namespace coloc::cli {
+namespace coloc {
 
 class RowProgress {
  public:
@@ -31,4 +31,4 @@ class RowProgress {
   std::optional<Progress> bar_;
 };
 
-}  // namespace coloc::cli
+}  // namespace coloc

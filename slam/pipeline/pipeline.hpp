@@ -1,8 +1,9 @@
 #pragma once
-// One SLAM run over a recorded sequence, as `coloc map`, `coloc bench track` and `coloc bench
-// loop` make it: a System (new, or continuing a saved map), every frame tracked (unreadable
-// ones skipped and counted), shutdown, the global BA of the finished map, and the accuracy of
-// what came out against the sequence's ground truth.
+// One SLAM run, as every entry point makes it (`coloc map`, the benches, `rgbd_tum`, the tests
+// and library users): a System (new, or continuing a saved map), every frame tracked
+// (unusable ones skipped and counted), shutdown, the global BA of the finished map (with the
+// IMU when the sequence has one), and the accuracy of what came out against the ground truth.
+// One function, so that every entry point gets the same map from the same input.
 #include <filesystem>
 #include <functional>
 #include <optional>
@@ -16,7 +17,7 @@
 #include "slam/settings/settings.hpp"
 #include "slam/system/system.hpp"
 
-namespace coloc::cli {
+namespace coloc::slam::pipeline {
 
 // How a recording's frames meet tracking and mapping. By default back to back, with tracking
 // waiting for local mapping after each keyframe (`sequential`, which the sequence overload of
@@ -46,19 +47,21 @@ struct RunOptions {
   std::filesystem::path load;  // a saved map to continue (empty: a new map)
   // Called with the System before the first frame (a live viewer attaches itself), and before
   // the System is destroyed, also when the run fails (it detaches).
-  std::function<void(slam::system::System&)> on_start;
+  std::function<void(system::System&)> on_start;
   std::function<void()> on_stop;
+  // Progress bars of the map's load and of the frames on stderr (never stdout).
+  bool progress = true;
 };
 
 struct RunResult {
-  slam::system::SystemSummary summary;
+  system::SystemSummary summary;
   Trajectory trajectory, keyframes;  // after the global BA when it ran
   std::optional<eval::AteResult> ate;
   // Every keyframe of the map (a continued map's earlier ones too) against the ground truth.
   std::optional<eval::AteResult> ate_keyframes;
   // The trajectory as tracking left it (before the global BA), and the BA's report.
   std::optional<eval::AteResult> ate_online;
-  std::optional<slam::mapping::GlobalBaReport> global_ba;
+  std::optional<mapping::GlobalBaReport> global_ba;
   // The same map after a global BA without the IMU, then with gravity only
   // (RunOptions::compare_imu).
   std::optional<eval::AteResult> ate_vision, ate_gravity;
@@ -72,12 +75,12 @@ const char* pacing_name(const RunOptions& run);
 // `finished` (optional) sees the System once the run and its global BA are done (to save it).
 RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& settings,
                    const slam::bow::Vocabulary& vocabulary, const RunOptions& options,
-                   const std::function<void(const slam::system::System&)>& finished = {});
+                   const std::function<void(const system::System&)>& finished = {});
 // The same over frames one after the other (a live camera: `coloc map --camera`); the ATE
 // figures exist when `truth` (the sequence with ground truth) is given.
 RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
                    const settings::Settings& settings, const slam::bow::Vocabulary& vocabulary,
                    const RunOptions& options,
-                   const std::function<void(const slam::system::System&)>& finished = {});
+                   const std::function<void(const system::System&)>& finished = {});
 
-}  // namespace coloc::cli
+}  // namespace coloc::slam::pipeline
