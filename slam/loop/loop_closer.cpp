@@ -112,7 +112,8 @@ bool LoopCloser::try_close(KeyframeId current, const Detection& detection) {
       if (v.implausible) ++stats_.rejected_aliasing;
     }
     if (!v.accepted) {
-      spdlog::info(
+      // Rejections are routine (the summary counts them); each one's figures are for debugging.
+      spdlog::debug(
           "loop rejected: keyframe {} -> {}: {} (score {:.3f}, min {:.3f}, consistency {}, bow "
           "{}, ransac {}, inliers {}, correction {:.3f} m / {:.3f} rad, allowed {:.3f} m / "
           "{:.3f} rad over {:.2f} m)",
