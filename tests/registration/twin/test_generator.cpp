@@ -148,7 +148,13 @@ TEST_F(TwinGenerator, ScanFilesHoldStationsPointsAndFaces) {
   // 6 faces of 96^2 sampled every 4 pixels: all directions hit the closed room.
   EXPECT_EQ(s.scan_points, 2u * 6u * 24u * 24u);
   const std::string ply = slurp(*dir_a_ / "scan" / "scan.ply");
-  EXPECT_NE(ply.find("element vertex " + std::to_string(s.scan_points)), std::string::npos);
+  // The count as PlyWriter writes it (zero-padded, patched in place when the stream ends), and
+  // 15 bytes a vertex (float xyz, uchar rgb) after the header.
+  const std::size_t count_at = ply.find("element vertex ");
+  ASSERT_NE(count_at, std::string::npos);
+  EXPECT_EQ(std::stoull(ply.substr(count_at + 15, 20)), s.scan_points);
+  const std::size_t body = ply.find("end_header\n") + 11;
+  EXPECT_EQ(ply.size() - body, 15u * s.scan_points);
   const auto stations = data_lines(*dir_a_ / "scan" / "stations.txt");
   ASSERT_EQ(stations.size(), 2u);
   EXPECT_EQ(data_lines(*dir_a_ / "scan" / "faces.txt").size(), 12u);

@@ -76,7 +76,7 @@ TEST(Settings, FisheyeOwnSectionsAndUnknownKeys) {
                           "Camera1.cy: 256.8\nCamera1.k1: 0.003\nCamera1.k2: 0.0007\n"
                           "Camera1.k3: -0.002\nCamera1.k4: 0.0002\nMarkers.dictionary: "
                           "\"DICT_APRILTAG_36h11\"\nMarkers.size: 0.2\nFusion.processNoise: "
-                          "0.002\nOSC.port: 9000\nCamera.fsp: 30\nIMU.NoiseAcc: 2.0e-3\n"
+                          "0.002\nOSC.port: 9000\nCamera.fsp: 30\nIMU.NoiseAccel: 2.0e-3\n"
                           "Coloc.tracking.min_local_inliers: 25\nColoc.mapping.local_ba: 0\n"
                           "Stereo.T_c1_c2: !!opencv-matrix\n  rows: 2\n  cols: 2\n  dt: f\n"
                           "  data: [1.0, 0.5, -2.0, 0.25]\n");
@@ -91,7 +91,7 @@ TEST(Settings, FisheyeOwnSectionsAndUnknownKeys) {
                                                             {"mapping.local_ba", 0.0}}));
   // Keys nothing reads are named, in file order: the misspelt one, and blocks no verb uses.
   EXPECT_EQ(s.warnings, (std::vector<std::string>{"Fusion.processNoise", "OSC.port", "Camera.fsp",
-                                                  "IMU.NoiseAcc", "Stereo.T_c1_c2"}));
+                                                  "IMU.NoiseAccel", "Stereo.T_c1_c2"}));
 }
 
 // ORB-SLAM3 v1.0's atlas keys name the map database to continue and to save; a bare name gets
@@ -182,6 +182,21 @@ TEST(Settings, GyroNoiseFigures) {
                "IMU.NoiseGyro");
   expect_error(write("gyro_text.yaml", std::string(kMinimal) + "IMU.GyroWalk: \"fast\"\n"),
                "IMU.GyroWalk");
+}
+
+// ORB-SLAM3's other IMU keys (in its IMU-RGBD files and in the twin's camera.yaml) are known:
+// checked, and no "unknown key" warning, although coloc does not use them.
+TEST(Settings, OrbSlam3ImuKeysAreKnownAndChecked) {
+  const Settings s = load_settings(
+      write("imu_keys.yaml", std::string(kMinimal) +
+                                 "IMU.NoiseAcc: 2.0e-3\nIMU.AccWalk: 3.0e-3\nIMU.Frequency: 200.0\n"
+                                 "IMU.InsertKFsWhenLost: 0\n"));
+  EXPECT_TRUE(s.warnings.empty());
+  expect_error(write("acc_neg.yaml", std::string(kMinimal) + "IMU.NoiseAcc: -1\n"), "IMU.NoiseAcc");
+  expect_error(write("rate_zero.yaml", std::string(kMinimal) + "IMU.Frequency: 0\n"),
+               "IMU.Frequency");
+  expect_error(write("insert.yaml", std::string(kMinimal) + "IMU.InsertKFsWhenLost: 2\n"),
+               "IMU.InsertKFsWhenLost");
 }
 
 TEST(Settings, UnreadableFilesAreErrors) {
