@@ -19,6 +19,7 @@ packages=(
   libcpp-httplib-dev
   nodejs chromium chromium-driver
   mkdocs
+  pcl-tools
 )
 
 missing=()

@@ -7,6 +7,7 @@
 
 #include "e57io/error.hpp"
 #include "e57io/reader.hpp"
+#include "registration/align/point_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
 
@@ -157,15 +158,10 @@ void read_scan(const e57::Reader& reader, std::size_t si, const ScanCloudOptions
   }
 }
 
-}  // namespace
-
-render::PointCloud load_scan_cloud(
-    const std::filesystem::path& path, const ScanCloudOptions& o, ScanCloudStats* stats,
-    const std::function<void(std::uint64_t, std::uint64_t)>& progress) {
-  o.check();
-  Stopwatch watch;
-  ScanCloudStats s;
-  render::PointCloud all;
+// Every scan of an E57 file with cartesian coordinates, in the file's frame.
+void read_e57(const std::filesystem::path& path, const ScanCloudOptions& o, render::PointCloud& all,
+              ScanCloudStats& s,
+              const std::function<void(std::uint64_t, std::uint64_t)>& progress) {
   try {
     const e57::Reader reader(path);
     std::uint64_t total = 0;
@@ -181,6 +177,44 @@ render::PointCloud load_scan_cloud(
     }
   } catch (const e57::Error& e) {
     throw Error(std::string("cannot read the scan: ") + e.what(), {.file = path.string()});
+  }
+}
+
+// A PLY or PCD cloud (point_file.hpp): no stations, so no spacing per point: the splats are
+// the voxel's size. Grey where the file has no colour.
+void read_point_file(const std::filesystem::path& path, const ScanCloudOptions& o,
+                     render::PointCloud& all, ScanCloudStats& s,
+                     const std::function<void(std::uint64_t, std::uint64_t)>& progress) {
+  PointFileReader reader(path);
+  s.scans = 1;
+  s.colour = reader.has_colour();
+  PointBatch batch;
+  while (const std::size_t n = reader.read(batch, 1 << 16)) {
+    for (std::size_t i = 0; i < batch.points.size(); ++i) {
+      const Eigen::Vector3f& p = batch.points[i];
+      if (o.max_range > 0.0 && p.norm() > o.max_range) continue;
+      all.points.push_back(p);
+      all.colours.push_back(s.colour ? batch.colours[i]
+                                     : std::array<std::uint8_t, 3>{128, 128, 128});
+    }
+    s.points_read += n;
+    if (progress) progress(s.points_read, reader.points_declared());
+  }
+}
+
+}  // namespace
+
+render::PointCloud load_scan_cloud(
+    const std::filesystem::path& path, const ScanCloudOptions& o, ScanCloudStats* stats,
+    const std::function<void(std::uint64_t, std::uint64_t)>& progress) {
+  o.check();
+  Stopwatch watch;
+  ScanCloudStats s;
+  render::PointCloud all;
+  if (detect_point_file(path) != PointFileFormat::kE57) {
+    read_point_file(path, o, all, s, progress);
+  } else {
+    read_e57(path, o, all, s, progress);
   }
   if (s.scans == 0)
     throw Error("no scan with cartesian coordinates", {.file = path.string(), .field = "data3D"});

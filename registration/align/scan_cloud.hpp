@@ -1,6 +1,7 @@
 #pragma once
 // The laser scan as the renderer draws it for the point-cloud refinement (Michiels et al. 2024,
-// section 4.5): every scan of an E57 file moved into the file's frame (world_from_scan), its
+// section 4.5), from an E57 file or a PLY / PCD export: every scan of an E57 file moved into the
+// file's frame (world_from_scan), its
 // colour (or intensity as grey) normalized to 8 bits, and thinned by a voxel grid so a keyframe
 // renders in a fraction of a second while its surfaces stay closed.
 //
@@ -48,11 +49,12 @@ struct ScanCloudStats {
   double ms = 0.0;
 };
 
-// Reads `e57_path`. Throws coloc::Error (naming the file) when it cannot be read, has no scan
-// with cartesian coordinates, or holds no valid point. `progress` (may be empty) is called with
-// (points read, points in the file).
+// Reads a scan: E57 (every scan with cartesian coordinates), or a PLY or PCD cloud
+// (point_file.hpp), told by the file's content. Throws coloc::Error (naming the file) when it
+// cannot be read, has no scan with cartesian coordinates, or holds no valid point. `progress`
+// (may be empty) is called with (points read, points in the file).
 render::PointCloud load_scan_cloud(
-    const std::filesystem::path& e57_path, const ScanCloudOptions& options = {},
+    const std::filesystem::path& path, const ScanCloudOptions& options = {},
     ScanCloudStats* stats = nullptr,
     const std::function<void(std::uint64_t, std::uint64_t)>& progress = {});
 
