@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
   coloc::cli::add_handeye_verb(app, bench);
   coloc::cli::add_fuse_verb(app, bench);
   coloc::cli::add_register_verb(app);
+  coloc::cli::add_scan_verb(app);
   coloc::cli::add_session_verb(app, bench);
   coloc::cli::add_view_verb(app, bench);
   coloc::cli::add_capture_verb(app, bench);

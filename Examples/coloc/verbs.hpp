@@ -42,6 +42,8 @@ void add_record_verb(CLI::App& app);
 void add_calibrate_verb(CLI::App& app);
 // `coloc register` (verb_register.cpp).
 void add_register_verb(CLI::App& app);
+// `coloc scan from-sequence` (verb_scan.cpp).
+void add_scan_verb(CLI::App& app);
 // `coloc view` and `coloc bench view` (verb_view.cpp, verb_view_bench.cpp).
 void add_view_verb(CLI::App& app, CLI::App& bench);
 void add_view_bench_verb(CLI::App& bench);
