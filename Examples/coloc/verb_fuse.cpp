@@ -341,7 +341,9 @@ void run_bench(BenchArgs a) {
 // ---- coloc fuse play ---------------------------------------------------------------------------
 
 struct PlayArgs {
-  std::string poses_file;
+  std::string poses_file, address = std::string(fusion::kXrPoseAddress);
+  std::string global_file;  // played as /coloc/pose, `latency` after its stamps
+  double latency = 0.05;
   fusion::OscPlayOptions options;
 };
 
@@ -349,7 +351,12 @@ struct PlayArgs {
 // the play after the pose in flight.
 void run_play(const PlayArgs& a) {
   a.options.check();
-  const Trajectory poses = read_poses(a.poses_file);
+  std::vector<fusion::OscPlayStream> streams{{read_poses(a.poses_file), a.address, 0.0}};
+  if (!a.global_file.empty())
+    streams.push_back({read_poses(a.global_file), std::string(fusion::kPoseAddress), a.latency});
+  std::size_t total = 0;
+  for (const auto& stream : streams)
+    total += stream.poses.size();
   block_stop_signals();
   const sigset_t signals = stop_signals();
   std::atomic<bool> stop{false}, done{false};
@@ -357,7 +364,7 @@ void run_play(const PlayArgs& a) {
   std::exception_ptr failure;
   std::thread player([&] {
     try {
-      stats = fusion::play_poses(poses, a.options, stop);
+      stats = fusion::play_poses(streams, a.options, stop);
     } catch (...) {
       failure = std::current_exception();
     }
@@ -369,8 +376,8 @@ void run_play(const PlayArgs& a) {
   }
   player.join();
   if (failure) std::rethrow_exception(failure);
-  std::printf("played %zu of %zu poses as %s (%zu send errors)%s\n", stats.sent, poses.size(),
-              a.options.address.c_str(), stats.send_errors, stats.stopped ? ", stopped" : "");
+  std::printf("played %zu of %zu poses (%zu send errors)%s\n", stats.sent, total, stats.send_errors,
+              stats.stopped ? ", stopped" : "");
   if (stats.sent == 0) throw CliFailure("no pose could be sent");
 }
 
@@ -423,8 +430,17 @@ void add_fuse_verb(CLI::App& app, CLI::App& bench) {
       ->check(CLI::ExistingFile);
   play.add_option("--to", play_args->options.targets, "osc.udp://HOST:PORT (repeatable)")
       ->required();
-  play.add_option("--address", play_args->options.address, "/coloc/xr_pose or /coloc/pose")
+  play.add_option("--address", play_args->address, "/coloc/xr_pose or /coloc/pose")
       ->capture_default_str();
+  auto* play_global =
+      play.add_option("--global", play_args->global_file,
+                      "Also play these poses (TUM, world_from_head) as /coloc/pose, "
+                      "as a localizer sends them")
+          ->check(CLI::ExistingFile);
+  play.add_option("--latency", play_args->latency,
+                  "Seconds after its stamp each --global pose is sent")
+      ->capture_default_str()
+      ->needs(play_global);
   play.add_option("--speed", play_args->options.speed, "Faster (> 1) or slower than recorded")
       ->capture_default_str();
   play.callback([play_args] { run_play(*play_args); });
