@@ -28,6 +28,17 @@ add_library(coloc_pcl INTERFACE)
 target_include_directories(coloc_pcl SYSTEM INTERFACE ${PCL_INCLUDE_DIRS})
 target_link_libraries(coloc_pcl INTERFACE ${PCL_LIBRARIES})
 add_library(coloc::pcl ALIAS coloc_pcl)
+# PCL's registration pieces (FPFH, ICP: registration/align/global_registration), linked by their
+# libraries alone: through PCL's config they would drag VTK and Qt into every link, which
+# nothing here uses (the libraries themselves do not need them).
+set(pcl_registration_libraries "")
+foreach(component features registration filters search sample_consensus octree)
+  find_library(COLOC_PCL_${component} NAMES pcl_${component} REQUIRED)
+  list(APPEND pcl_registration_libraries ${COLOC_PCL_${component}})
+endforeach()
+add_library(coloc_pcl_registration INTERFACE)
+target_link_libraries(coloc_pcl_registration INTERFACE coloc_pcl ${pcl_registration_libraries})
+add_library(coloc::pcl_registration ALIAS coloc_pcl_registration)
 coloc_require_package(yaml-cpp libyaml-cpp-dev)
 
 # liblo and OSMesa ship only pkg-config files on Debian.

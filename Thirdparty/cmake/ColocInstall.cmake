@@ -20,7 +20,7 @@ target_link_libraries(coloc_all INTERFACE ${static_libraries})
 add_library(coloc::coloc ALIAS coloc_all)
 
 install(TARGETS coloc RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
-install(TARGETS ${exported} coloc_all coloc_pcl
+install(TARGETS ${exported} coloc_all coloc_pcl coloc_pcl_registration
         EXPORT colocTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}

@@ -1,0 +1,414 @@
+#include "registration/align/global_registration.hpp"
+
+#include <pcl/features/fpfh.h>
+#include <pcl/features/normal_3d.h>
+#include <pcl/kdtree/kdtree_flann.h>
+#include <pcl/point_types.h>
+#include <pcl/search/kdtree.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <sstream>
+
+#include "registration/align/scan_cloud.hpp"
+#include "slam/core/align.hpp"
+#include "slam/core/error.hpp"
+#include "slam/core/timing.hpp"
+
+namespace coloc::registration::align {
+namespace {
+
+using Cloud = pcl::PointCloud<pcl::PointNormal>;
+using Features = pcl::PointCloud<pcl::FPFHSignature33>;
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+// The cloud on a voxel grid of `voxel` metres, with normals from neighbours within
+// `normal_radius` metres (oriented towards +z where ambiguous, as a scan's floor and a map's).
+Cloud::Ptr thinned_with_normals(const render::PointCloud& in, double voxel, double normal_radius) {
+  ScanCloudOptions o;
+  o.voxel_size = voxel;
+  const render::PointCloud thin = voxel_downsample(in, o);
+  auto points = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  points->reserve(thin.points.size());
+  for (const Eigen::Vector3f& p : thin.points)
+    points->push_back({p.x(), p.y(), p.z()});
+  pcl::NormalEstimation<pcl::PointXYZ, pcl::Normal> estimation;
+  auto tree = std::make_shared<pcl::search::KdTree<pcl::PointXYZ>>();
+  estimation.setSearchMethod(tree);
+  estimation.setRadiusSearch(normal_radius);
+  estimation.setViewPoint(0.0f, 0.0f, 1e6f);
+  estimation.setInputCloud(points);
+  pcl::PointCloud<pcl::Normal> normals;
+  estimation.compute(normals);
+  auto out = std::make_shared<Cloud>();
+  out->reserve(points->size());
+  for (std::size_t i = 0; i < points->size(); ++i) {
+    const pcl::Normal& n = normals[i];
+    if (!std::isfinite(n.normal_x)) continue;  // too few neighbours for a plane
+    pcl::PointNormal p;
+    p.x = (*points)[i].x;
+    p.y = (*points)[i].y;
+    p.z = (*points)[i].z;
+    p.normal_x = n.normal_x;
+    p.normal_y = n.normal_y;
+    p.normal_z = n.normal_z;
+    p.curvature = std::isfinite(n.curvature) ? n.curvature : 0.0f;
+    out->push_back(p);
+  }
+  return out;
+}
+
+Features::Ptr fpfh(const Cloud::Ptr& cloud, double radius) {
+  pcl::FPFHEstimation<pcl::PointNormal, pcl::PointNormal, pcl::FPFHSignature33> estimation;
+  estimation.setSearchMethod(std::make_shared<pcl::search::KdTree<pcl::PointNormal>>());
+  estimation.setRadiusSearch(radius);
+  estimation.setInputCloud(cloud);
+  estimation.setInputNormals(cloud);
+  auto out = std::make_shared<Features>();
+  estimation.compute(*out);
+  return out;
+}
+
+Eigen::Vector3d xyz(const pcl::PointNormal& p) {
+  return {p.x, p.y, p.z};
+}
+
+// Mutual nearest neighbours in descriptor space: (map index, scan index).
+std::vector<std::pair<int, int>> mutual_matches(const Features& map, const Features& scan) {
+  pcl::KdTreeFLANN<pcl::FPFHSignature33> scan_tree, map_tree;
+  scan_tree.setInputCloud(std::make_shared<Features>(scan));
+  map_tree.setInputCloud(std::make_shared<Features>(map));
+  std::vector<int> index(1);
+  std::vector<float> distance(1);
+  std::vector<std::pair<int, int>> matches;
+  const auto finite = [](const pcl::FPFHSignature33& f) {
+    return std::all_of(std::begin(f.histogram), std::end(f.histogram),
+                       [](float x) { return std::isfinite(x); });
+  };
+  for (std::size_t i = 0; i < map.size(); ++i) {
+    if (!finite(map[i])) continue;  // too few neighbours for a descriptor
+    if (scan_tree.nearestKSearch(map[i], 1, index, distance) != 1) continue;
+    const int j = index[0];
+    if (!finite(scan[static_cast<std::size_t>(j)])) continue;
+    if (map_tree.nearestKSearch(scan[static_cast<std::size_t>(j)], 1, index, distance) != 1)
+      continue;
+    if (index[0] == static_cast<int>(i)) matches.emplace_back(static_cast<int>(i), j);
+  }
+  return matches;
+}
+
+// A rigid transform from matched points; with gravity, the yaw and translation only.
+std::optional<SE3> propose(const std::vector<Eigen::Vector3d>& src,
+                           const std::vector<Eigen::Vector3d>& dst, bool gravity) {
+  if (gravity) {
+    // Yaw from the horizontal direction between the first two points, translation from the
+    // centroids.
+    const Eigen::Vector2d a = (src[1] - src[0]).head<2>(), b = (dst[1] - dst[0]).head<2>();
+    if (a.norm() < 1e-3 || b.norm() < 1e-3) return std::nullopt;
+    const double yaw = std::atan2(b.y(), b.x()) - std::atan2(a.y(), a.x());
+    const SO3 r = SO3::exp(Eigen::Vector3d(0.0, 0.0, yaw));
+    Eigen::Vector3d cs = Eigen::Vector3d::Zero(), cd = Eigen::Vector3d::Zero();
+    for (std::size_t k = 0; k < src.size(); ++k) {
+      cs += src[k];
+      cd += dst[k];
+    }
+    const double n = static_cast<double>(src.size());
+    return SE3(r, cd / n - r * (cs / n));
+  }
+  const AlignmentResult a = align_points(src, dst);
+  if (!a.usable) return std::nullopt;
+  return a.dst_from_src.to_se3();
+}
+
+bool distinct(const SE3& a, const SE3& b, const GlobalRegistrationOptions& o) {
+  const SE3 d = a.inverse() * b;
+  return d.translation().norm() > o.distinct_m || d.so3().log().norm() > o.distinct_deg * kDeg;
+}
+
+struct Scored {
+  SE3 scan_from_map;
+  double fitness = 0.0, rmse = 0.0;
+};
+
+// Fitness and inlier RMSE of `map` moved by `t` against the scan's k-d tree.
+Scored score(const Cloud& map, const pcl::KdTreeFLANN<pcl::PointNormal>& scan, const SE3& t,
+             double inlier) {
+  std::vector<int> index(1);
+  std::vector<float> distance(1);
+  std::size_t inliers = 0;
+  double sum = 0.0;
+  for (const pcl::PointNormal& p : map) {
+    const Eigen::Vector3d q = t * xyz(p);
+    if (!q.allFinite()) continue;
+    pcl::PointNormal query = p;  // every field valid: the k-d tree checks them all
+    query.x = static_cast<float>(q.x());
+    query.y = static_cast<float>(q.y());
+    query.z = static_cast<float>(q.z());
+    if (scan.nearestKSearch(query, 1, index, distance) != 1) continue;
+    if (distance[0] <= inlier * inlier) {
+      ++inliers;
+      sum += distance[0];
+    }
+  }
+  Scored s{t};
+  s.fitness = map.empty() ? 0.0 : static_cast<double>(inliers) / static_cast<double>(map.size());
+  s.rmse = inliers == 0 ? 0.0 : std::sqrt(sum / static_cast<double>(inliers));
+  return s;
+}
+
+// The clouds on each ICP level's grid, computed once for every proposal refined on them.
+struct Level {
+  Cloud::Ptr map, scan;
+};
+
+std::vector<Level> icp_levels(const render::PointCloud& map_cloud,
+                              const render::PointCloud& scan_cloud,
+                              const GlobalRegistrationOptions& o) {
+  std::vector<Level> levels;
+  for (const double voxel : o.icp_voxels) {
+    Level l{thinned_with_normals(map_cloud, voxel, o.normal_radius * voxel),
+            thinned_with_normals(scan_cloud, voxel, o.normal_radius * voxel)};
+    if (l.map->size() >= 10 && l.scan->size() >= 10) levels.push_back(l);
+  }
+  return levels;
+}
+
+// Point-to-plane ICP from `t`, coarse to fine (`levels_used` of them: where a candidate
+// converges shows on the coarse level already; only the winner needs the fine one). Our own
+// Gauss-Newton step with a small damping term: where the geometry leaves a direction free (a
+// corridor's axis) the step along it is zero instead of the singular solve's NaN (PCL's
+// point-to-plane ICP aborts there), and the verdict sees the freedom through its probes.
+SE3 refine(const std::vector<Level>& levels, SE3 t, const GlobalRegistrationOptions& o,
+           std::size_t levels_used) {
+  std::vector<int> index(1);
+  std::vector<float> distance(1);
+  for (std::size_t k = 0; k < std::min(levels.size(), levels_used); ++k) {
+    const double reach = 3.0 * o.icp_voxels[k];
+    pcl::KdTreeFLANN<pcl::PointNormal> tree;
+    tree.setInputCloud(levels[k].scan);
+    const Cloud& map = *levels[k].map;
+    const Cloud& scan = *levels[k].scan;
+    for (int it = 0; it < o.icp_iterations; ++it) {
+      Eigen::Matrix<double, 6, 6> h = Eigen::Matrix<double, 6, 6>::Zero();
+      Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
+      std::size_t used = 0;
+      for (const pcl::PointNormal& p : map) {
+        const Eigen::Vector3d q = t * xyz(p);
+        pcl::PointNormal query = p;
+        query.x = static_cast<float>(q.x());
+        query.y = static_cast<float>(q.y());
+        query.z = static_cast<float>(q.z());
+        if (tree.nearestKSearch(query, 1, index, distance) != 1 || distance[0] > reach * reach)
+          continue;
+        const pcl::PointNormal& s = scan[static_cast<std::size_t>(index[0])];
+        const Eigen::Vector3d n(s.normal_x, s.normal_y, s.normal_z);
+        const double r = n.dot(q - xyz(s));
+        Eigen::Matrix<double, 6, 1> j;
+        j << q.cross(n), n;  // d r / d(rotation, translation), left perturbation
+        h += j * j.transpose();
+        g += j * r;
+        ++used;
+      }
+      if (used < 6) break;
+      const double damping = 1e-6 * h.trace() / 6.0 + 1e-12;
+      const Eigen::Matrix<double, 6, 1> step =
+          -(h + damping * Eigen::Matrix<double, 6, 6>::Identity()).ldlt().solve(g);
+      if (!step.allFinite()) break;
+      t = SE3(SO3::exp(step.head<3>()), step.tail<3>()) * t;
+      if (step.head<3>().norm() < 1e-6 && step.tail<3>().norm() < 1e-5) break;
+    }
+  }
+  return t;
+}
+
+// Where a symmetric or repeated space would let the map sit as well: the winner moved by a
+// metre along each axis and turned half a turn about the vertical (and, without gravity, about
+// the horizontal axes), each about the map's centre in the scan.
+std::vector<SE3> probes(const SE3& winner, const Cloud& map, bool gravity) {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const auto& p : map)
+    centre += xyz(p);
+  centre = winner * (centre / static_cast<double>(std::max<std::size_t>(map.size(), 1)));
+  std::vector<SE3> out;
+  for (int axis = 0; axis < 3; ++axis)
+    for (const double step : {-1.0, 1.0})
+      out.push_back(SE3(SO3(), step * Eigen::Vector3d::Unit(axis)) * winner);
+  for (int axis = gravity ? 2 : 0; axis < 3; ++axis) {
+    const SE3 turn(SO3::exp(std::numbers::pi * Eigen::Vector3d::Unit(axis)),
+                   Eigen::Vector3d::Zero());
+    out.push_back(SE3(SO3(), centre) * turn * SE3(SO3(), -centre) * winner);
+  }
+  return out;
+}
+
+std::string figures(const Scored& s, double runner_up) {
+  std::ostringstream out;
+  out.precision(3);
+  out << "fitness " << s.fitness << ", inlier RMSE " << s.rmse << " m, runner-up fitness "
+      << runner_up;
+  return out.str();
+}
+
+}  // namespace
+
+void GlobalRegistrationOptions::check() const {
+  const auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
+  if (!positive(voxel_size))
+    throw Error("must be a positive number of metres", {.field = "voxel_size"});
+  if (!positive(normal_radius) || !positive(feature_radius) || !positive(inlier_factor))
+    throw Error("radii and the inlier factor must be positive", {.field = "feature_radius"});
+  if (ransac_iterations < 1) throw Error("must be >= 1", {.field = "ransac_iterations"});
+  if (!(edge_similarity > 0.0 && edge_similarity < 1.0))
+    throw Error("must be in (0, 1)", {.field = "edge_similarity"});
+  if (hypotheses < 1) throw Error("must be >= 1", {.field = "hypotheses"});
+  if (icp_voxels.empty()) throw Error("at least one ICP level", {.field = "icp_voxels"});
+  for (double v : icp_voxels)
+    if (!positive(v)) throw Error("must be positive", {.field = "icp_voxels"});
+  if (!(min_fitness > 0.0 && min_fitness <= 1.0))
+    throw Error("must be in (0, 1]", {.field = "min_fitness"});
+  if (!(ambiguity > 0.0 && ambiguity <= 1.0))
+    throw Error("must be in (0, 1]", {.field = "ambiguity"});
+}
+
+GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
+                                         const render::PointCloud& scan_cloud,
+                                         const GlobalRegistrationOptions& o,
+                                         const std::optional<SE3>& initial) {
+  o.check();
+  Stopwatch watch;
+  const double v = o.voxel_size;
+  const Cloud::Ptr map = thinned_with_normals(map_cloud, v, o.normal_radius * v);
+  const Cloud::Ptr scan = thinned_with_normals(scan_cloud, v, o.normal_radius * v);
+  if (map->size() < 30 || scan->size() < 30)
+    throw Error("too few points to register (" + std::to_string(map->size()) + " of the map, " +
+                    std::to_string(scan->size()) + " of the scan on a " + std::to_string(v) +
+                    " m grid)",
+                {.field = "registration"});
+  GlobalRegistrationReport report;
+  report.map_points = map->size();
+  report.scan_points = scan->size();
+  pcl::KdTreeFLANN<pcl::PointNormal> scan_tree;
+  scan_tree.setInputCloud(scan);
+  const double inlier = o.inlier_factor * v;
+
+  std::vector<SE3> proposals;
+  if (initial) {
+    proposals.push_back(*initial);
+    report.from_initial = true;
+  } else {
+    const Features::Ptr map_features = fpfh(map, o.feature_radius * v);
+    const Features::Ptr scan_features = fpfh(scan, o.feature_radius * v);
+    const auto matches = mutual_matches(*map_features, *scan_features);
+    report.matches = matches.size();
+    const std::size_t sample = o.gravity ? 2 : 3;
+    if (matches.size() < sample + 3)
+      throw Error("the map and the scan share too few features (" + std::to_string(matches.size()) +
+                      " mutual matches): too little overlap? Give --initial or use markers",
+                  {.field = "registration"});
+    std::mt19937_64 rng(o.seed);
+    std::uniform_int_distribution<std::size_t> pick(0, matches.size() - 1);
+    struct Proposal {
+      SE3 t;
+      std::size_t votes;
+    };
+    std::vector<Proposal> best;  // distinct, most votes first
+    std::vector<Eigen::Vector3d> src(sample), dst(sample);
+    for (int it = 0; it < o.ransac_iterations; ++it) {
+      bool similar = true;
+      for (std::size_t k = 0; k < sample; ++k) {
+        const auto& [i, j] = matches[pick(rng)];
+        src[k] = xyz((*map)[static_cast<std::size_t>(i)]);
+        dst[k] = xyz((*scan)[static_cast<std::size_t>(j)]);
+      }
+      // Prerejection: a rigid motion keeps the sample's pairwise distances.
+      for (std::size_t a = 0; a < sample && similar; ++a)
+        for (std::size_t b = a + 1; b < sample && similar; ++b) {
+          const double ls = (src[a] - src[b]).norm(), ld = (dst[a] - dst[b]).norm();
+          similar =
+              std::min(ls, ld) > 2.0 * v && std::min(ls, ld) / std::max(ls, ld) > o.edge_similarity;
+        }
+      if (!similar) continue;
+      const std::optional<SE3> t = propose(src, dst, o.gravity);
+      if (!t) continue;
+      std::size_t votes = 0;
+      for (const auto& [i, j] : matches)
+        if ((*t * xyz((*map)[static_cast<std::size_t>(i)]) -
+             xyz((*scan)[static_cast<std::size_t>(j)]))
+                .norm() < inlier)
+          ++votes;
+      auto same = std::find_if(best.begin(), best.end(),
+                               [&](const Proposal& p) { return !distinct(p.t, *t, o); });
+      if (same != best.end()) {
+        if (votes > same->votes) *same = {*t, votes};
+      } else {
+        best.push_back({*t, votes});
+      }
+      std::sort(best.begin(), best.end(),
+                [](const Proposal& a, const Proposal& b) { return a.votes > b.votes; });
+      if (best.size() > static_cast<std::size_t>(o.hypotheses)) best.resize(o.hypotheses);
+    }
+    if (best.empty())
+      throw Error(
+          "no consistent transform among the feature matches: too little overlap or a "
+          "featureless scene? Give --initial or use markers",
+          {.field = "registration"});
+    for (const Proposal& p : best)
+      proposals.push_back(p.t);
+  }
+
+  // Refine every proposal; the best explains the map. Then whether it is unique: the other
+  // proposals, and the winner's probes, refined; the best of them far from the winner is the
+  // runner-up.
+  const std::vector<Level> levels = icp_levels(map_cloud, scan_cloud, o);
+  std::vector<Scored> refined;
+  for (const SE3& t : proposals)
+    refined.push_back(score(*map, scan_tree, refine(levels, t, o, 1), inlier));
+  std::sort(refined.begin(), refined.end(),
+            [](const Scored& a, const Scored& b) { return a.fitness > b.fitness; });
+  for (const SE3& t : probes(refined.front().scan_from_map, *map, o.gravity))
+    refined.push_back(score(*map, scan_tree, refine(levels, t, o, 1), inlier));
+  const Scored winner = score(
+      *map, scan_tree, refine(levels, refined.front().scan_from_map, o, levels.size()), inlier);
+  for (const Scored& s : refined)
+    if (distinct(s.scan_from_map, winner.scan_from_map, o))
+      report.runner_up = std::max(report.runner_up, s.fitness);
+  report.scan_from_map = winner.scan_from_map;
+  report.fitness = winner.fitness;
+  report.rmse = winner.rmse;
+  {
+    // Overlap: the share of the scan's voxels that the moved map reaches.
+    pcl::KdTreeFLANN<pcl::PointNormal> map_tree;
+    auto moved = std::make_shared<Cloud>(*map);
+    for (auto& p : *moved) {
+      const Eigen::Vector3d q = winner.scan_from_map * xyz(p);
+      p.x = static_cast<float>(q.x());
+      p.y = static_cast<float>(q.y());
+      p.z = static_cast<float>(q.z());
+    }
+    map_tree.setInputCloud(moved);
+    const Scored covered = score(*scan, map_tree, SE3(), inlier);
+    report.overlap = covered.fitness;
+  }
+  report.ms = watch.elapsed_ms();
+  spdlog::debug(
+      "global registration: fitness {:.3f}, RMSE {:.4f} m, overlap {:.3f}, runner-up {:.3f}, "
+      "{} matches, {:.0f} ms",
+      report.fitness, report.rmse, report.overlap, report.runner_up, report.matches, report.ms);
+  if (winner.fitness < o.min_fitness)
+    throw Error("no transform puts the map on the scan (" + figures(winner, report.runner_up) +
+                    "; needs fitness >= " + std::to_string(o.min_fitness) +
+                    "): another building, or too little overlap? Give --initial or use markers",
+                {.field = "registration"});
+  if (report.runner_up >= o.ambiguity * winner.fitness)
+    throw Error("ambiguous: another transform, far from the best, fits the map nearly as well (" +
+                    figures(winner, report.runner_up) +
+                    "): a symmetric or repeated space. Give --initial or use markers",
+                {.field = "registration"});
+  return report;
+}
+
+}  // namespace coloc::registration::align

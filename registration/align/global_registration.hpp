@@ -1,0 +1,67 @@
+#pragma once
+// Registration of two point clouds with no initial guess: a dense cloud of the SLAM map (in the
+// map's frame) onto the laser scan, for maps without markers. With an initial guess (the
+// user's, or a previous level's) only the refinement runs.
+//
+// 1. Both clouds are thinned by a voxel grid; normals and FPFH descriptors (Rusu 2009, PCL) are
+//    computed on them.
+// 2. Each map point is matched to the scan point with the nearest descriptor, kept when the
+//    match is mutual.
+// 3. RANSAC over those matches (our own, seeded: the same inputs give the same answer): three
+//    matches whose pairwise distances agree within `edge_similarity` propose a rigid transform
+//    (two suffice with `gravity`, where both clouds are z-up and only yaw and translation are
+//    free); a proposal scores by the matches it explains. The best distinct proposals are kept.
+// 4. Each kept proposal is refined by point-to-plane ICP, coarse to fine, and judged by its
+//    fitness: the share of map points within `inlier_factor` voxels of the scan after it.
+// 5. The verdict. The best refined proposal is accepted only when its fitness passes, and no
+//    other solution far from it explains the map nearly as well: the other proposals, and
+//    probes where a symmetric or repeated space would fit (the winner moved a metre along each
+//    axis, turned half a turn), are refined too. Otherwise a coloc::Error says which test failed
+//    and what to do (an initial guess, or markers).
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "registration/render/scene.hpp"
+#include "slam/core/se3.hpp"
+
+namespace coloc::registration::align {
+
+struct GlobalRegistrationOptions {
+  double voxel_size = 0.05;     // metres: the grid features are computed on
+  double normal_radius = 2.5;   // in voxels
+  double feature_radius = 6.0;  // in voxels
+  double inlier_factor = 1.5;   // inlier distance, in voxels (RANSAC and fitness)
+  bool gravity = false;         // both clouds z-up: yaw + translation only
+  int ransac_iterations = 10000;
+  double edge_similarity = 0.9;  // pairwise distances of a sample agree to this ratio
+  int hypotheses = 8;            // distinct proposals refined and compared
+  std::vector<double> icp_voxels = {0.05, 0.02};  // coarse to fine (metres)
+  int icp_iterations = 30;                        // per level
+  double min_fitness = 0.35;  // share of map points on the scan after the refinement
+  double ambiguity = 0.85;    // another solution with this share of the best's fitness
+  double distinct_m = 0.5, distinct_deg = 10.0;  // what counts as another solution
+  std::uint64_t seed = 1;
+  // Throws coloc::Error naming the first invalid field.
+  void check() const;
+};
+
+struct GlobalRegistrationReport {
+  SE3 scan_from_map;
+  double fitness = 0.0;    // share of map points within the inlier distance of the scan
+  double rmse = 0.0;       // of those points' distances (metres)
+  double overlap = 0.0;    // share of the scan's voxels that map points land in
+  double runner_up = 0.0;  // fitness of the best solution far from the accepted one (0: none)
+  std::size_t map_points = 0, scan_points = 0, matches = 0;
+  bool from_initial = false;  // the global search was skipped
+  double ms = 0.0;
+};
+
+// `initial` (optional): scan_from_map to refine from, skipping the global search. Throws
+// coloc::Error (field "registration") when the result is weak or ambiguous, with the figures.
+GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
+                                         const render::PointCloud& scan_cloud,
+                                         const GlobalRegistrationOptions& options = {},
+                                         const std::optional<SE3>& initial = std::nullopt);
+
+}  // namespace coloc::registration::align

@@ -1,0 +1,174 @@
+// Registration without markers or an initial guess (registration/align/global_registration):
+// a furnished room sampled as a scan, and a noisy part of it moved into a "map" frame by a
+// known transform at several yaws. The transform comes back; with gravity the search is yaw +
+// translation only. A symmetric corridor is refused as ambiguous, a map of another room as not
+// fitting: named errors, never a silently wrong transform.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+#include <numbers>
+#include <random>
+
+#include "registration/align/global_registration.hpp"
+#include "slam/core/error.hpp"
+
+namespace coloc::registration::align {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+// A box's visible faces (or a wall: a box of zero thickness), points every `step` metres with
+// `noise` metres of jitter.
+struct Sampler {
+  render::PointCloud cloud;
+  std::mt19937 rng{7};
+  double step = 0.02, noise = 0.0;
+
+  void plane(const Eigen::Vector3d& origin, const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
+    std::normal_distribution<double> jitter(0.0, noise);
+    const int nu = static_cast<int>(u.norm() / step), nv = static_cast<int>(v.norm() / step);
+    for (int i = 0; i <= nu; ++i)
+      for (int j = 0; j <= nv; ++j) {
+        Eigen::Vector3d p = origin + u * (double(i) / nu) + v * (double(j) / nv);
+        if (noise > 0.0) p += Eigen::Vector3d(jitter(rng), jitter(rng), jitter(rng));
+        cloud.points.push_back(p.cast<float>());
+        cloud.colours.push_back({128, 128, 128});
+      }
+  }
+  void box(const Eigen::Vector3d& lo, const Eigen::Vector3d& size) {
+    const Eigen::Vector3d x(size.x(), 0, 0), y(0, size.y(), 0), z(0, 0, size.z());
+    plane(lo + z, x, y);  // top
+    plane(lo, x, z);
+    plane(lo + y, x, z);
+    plane(lo, y, z);
+    plane(lo + x, y, z);
+  }
+};
+
+// A 6 x 4 m room, 2.5 m high, with furniture placed without symmetry. `seed` moves the
+// furniture (another room).
+render::PointCloud room(int seed, double step, double noise) {
+  Sampler s;
+  s.step = step;
+  s.noise = noise;
+  s.rng.seed(static_cast<unsigned>(seed));
+  s.plane({0, 0, 0}, {6, 0, 0}, {0, 4, 0});    // floor
+  s.plane({0, 0, 0}, {6, 0, 0}, {0, 0, 2.5});  // walls
+  s.plane({0, 4, 0}, {6, 0, 0}, {0, 0, 2.5});
+  s.plane({0, 0, 0}, {0, 4, 0}, {0, 0, 2.5});
+  s.plane({6, 0, 0}, {0, 4, 0}, {0, 0, 2.5});
+  std::mt19937 place(static_cast<unsigned>(seed));
+  std::uniform_real_distribution<double> x(0.2, 5.0), y(0.2, 3.0), size(0.3, 1.0);
+  for (int k = 0; k < 7; ++k)
+    s.box({x(place), y(place), 0.0}, {size(place), size(place), size(place) + 0.2});
+  return s.cloud;
+}
+
+// The part of `scan` with x < `keep_x` (what a walk through part of the room saw), moved into
+// the map's frame.
+render::PointCloud map_of(const render::PointCloud& scan, const SE3& map_from_scan, double keep_x) {
+  render::PointCloud map;
+  for (std::size_t i = 0; i < scan.points.size(); ++i) {
+    if (scan.points[i].x() > keep_x) continue;
+    map.points.push_back((map_from_scan * scan.points[i].cast<double>()).cast<float>());
+    map.colours.push_back(scan.colours[i]);
+  }
+  return map;
+}
+
+// Coarser than the defaults (which are for rooms of a real site): the same search, in seconds.
+GlobalRegistrationOptions test_options() {
+  GlobalRegistrationOptions o;
+  o.voxel_size = 0.08;
+  o.icp_voxels = {0.08, 0.04};
+  o.ransac_iterations = 4000;
+  return o;
+}
+
+void expect_near(const SE3& a, const SE3& b, double metres, double degrees) {
+  const SE3 d = a.inverse() * b;
+  EXPECT_LT(d.translation().norm(), metres);
+  EXPECT_LT(d.so3().log().norm() / kDeg, degrees);
+}
+
+TEST(GlobalRegistration, RecoversTheTransformFromAnyYaw) {
+  const render::PointCloud scan = room(3, 0.03, 0.0);
+  const render::PointCloud seen = room(3, 0.03, 0.004);  // the map's own noisy sampling
+  for (const double yaw : {0.0, 100.0, 230.0}) {
+    SCOPED_TRACE("yaw " + std::to_string(yaw));
+    const SE3 map_from_scan(SO3::exp({0.0, 0.0, yaw * kDeg}), {-2.0, 7.5, 0.3});
+    const render::PointCloud map = map_of(seen, map_from_scan, 4.5);
+    GlobalRegistrationOptions o = test_options();
+    o.gravity = yaw == 100.0;  // one run with the yaw-only search
+    const GlobalRegistrationReport r = register_clouds(map, scan, o);
+    std::cout << "yaw " << yaw << ": fitness " << r.fitness << ", RMSE " << r.rmse << " m, overlap "
+              << r.overlap << ", runner-up " << r.runner_up << ", " << r.matches << " matches, "
+              << r.ms << " ms\n";
+    expect_near(r.scan_from_map, map_from_scan.inverse(), 0.02, 0.5);
+    EXPECT_GT(r.fitness, 0.8);
+    EXPECT_GT(r.overlap, 0.5);
+    EXPECT_LT(r.runner_up, o.ambiguity * r.fitness);
+  }
+}
+
+TEST(GlobalRegistration, AnInitialGuessIsRefinedWithoutTheSearch) {
+  const render::PointCloud scan = room(3, 0.03, 0.0);
+  const SE3 map_from_scan(SO3::exp({0.0, 0.0, 0.3}), {1.0, 2.0, 0.0});
+  const render::PointCloud map = map_of(room(3, 0.03, 0.004), map_from_scan, 4.5);
+  const SE3 guess = SE3(SO3::exp({0.0, 0.0, 0.05}), {0.08, -0.05, 0.02}) * map_from_scan.inverse();
+  const GlobalRegistrationReport r = register_clouds(map, scan, test_options(), guess);
+  EXPECT_TRUE(r.from_initial);
+  expect_near(r.scan_from_map, map_from_scan.inverse(), 0.02, 0.5);
+}
+
+TEST(GlobalRegistration, ASymmetricCorridorIsAmbiguous) {
+  // 12 m of bare corridor: any shift along it, and a half turn, fit as well as the truth.
+  Sampler s;
+  s.step = 0.03;
+  s.plane({0, 0, 0}, {12, 0, 0}, {0, 2, 0});
+  s.plane({0, 0, 0}, {12, 0, 0}, {0, 0, 2.5});
+  s.plane({0, 2, 0}, {12, 0, 0}, {0, 0, 2.5});
+  const render::PointCloud map = map_of(s.cloud, SE3(SO3(), {0.0, 0.0, 0.0}), 5.0);
+  try {
+    register_clouds(map, s.cloud, test_options());
+    FAIL() << "a corridor must not register without a guess";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().field, "registration") << e.what();
+    std::cout << e.what() << "\n";
+  }
+}
+
+TEST(GlobalRegistration, AMapOfAnotherRoomDoesNotFit) {
+  const render::PointCloud scan = room(3, 0.03, 0.0);
+  // Another room: the furniture elsewhere, and a map of its furniture only (no room shell, which
+  // would fit any room of the same size).
+  render::PointCloud other;
+  const render::PointCloud elsewhere = room(11, 0.03, 0.004);
+  for (std::size_t i = 0; i < elsewhere.points.size(); ++i) {
+    const Eigen::Vector3f& p = elsewhere.points[i];
+    if (p.z() > 0.05 && p.x() > 0.05 && p.x() < 5.95 && p.y() > 0.05 && p.y() < 3.95) {
+      other.points.push_back(p);
+      other.colours.push_back(elsewhere.colours[i]);
+    }
+  }
+  try {
+    register_clouds(other, scan, test_options());
+    FAIL() << "furniture of another room must not register";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().field, "registration") << e.what();
+    std::cout << e.what() << "\n";
+  }
+}
+
+TEST(GlobalRegistration, OptionsAreChecked) {
+  GlobalRegistrationOptions o;
+  o.voxel_size = 0.0;
+  EXPECT_THROW(o.check(), Error);
+  o = {};
+  o.icp_voxels.clear();
+  EXPECT_THROW(o.check(), Error);
+}
+
+}  // namespace
+}  // namespace coloc::registration::align
