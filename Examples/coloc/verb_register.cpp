@@ -17,11 +17,13 @@
 #include "Examples/coloc/slam_inputs.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "markers/marker_map.hpp"
+#include "registration/align/markerless.hpp"
 #include "registration/align/register.hpp"
 #include "registration/align/scan_cloud.hpp"
 #include "registration/render/renderer.hpp"
 #include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 #include "slam/core/row_progress.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/mapdb/mapdb.hpp"
@@ -34,12 +36,13 @@ namespace align = registration::align;
 namespace render = registration::render;
 
 struct RegisterArgs {
-  fs::path map, markers, out, scan, report, vocabulary, sequence;
+  fs::path map, markers, out, scan, report, vocabulary, sequence, initial;
+  bool gravity = false;
   double voxel = 0.01;
   int threads = 2;
   int report_keyframes = 4;
   std::string refine_mode = "terms";
-  std::string level = "markers";
+  std::string level;  // empty: "markers", or "cloud" without --markers
   int min_markers = 3;
   std::vector<int> only_markers, ignore_markers;
   double inlier_threshold = 0.35;
@@ -195,7 +198,89 @@ std::string summary_of(const align::RegistrationResult& r, const RegisterArgs& a
   return j.dump();
 }
 
+// --initial: a 4x4 scan_from_map, four rows of four numbers; a rigid transform or an error
+// naming the file.
+SE3 read_initial(const fs::path& path) {
+  check_input_file(path, "initial transform");
+  std::ifstream in(path);
+  Eigen::Matrix4d m;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c)
+      if (!(in >> m(r, c)) || !std::isfinite(m(r, c)))
+        throw Error("expected a 4x4 matrix of finite numbers (scan_from_map)",
+                    {.file = path.string(), .field = "row " + std::to_string(r + 1)});
+  const Eigen::Matrix3d rotation = m.topLeftCorner<3, 3>();
+  if ((rotation * rotation.transpose() - Eigen::Matrix3d::Identity()).norm() > 1e-3 ||
+      rotation.determinant() < 0.0 || (m.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-9)
+    throw Error("not a rigid transform (orthonormal rotation, last row 0 0 0 1)",
+                {.file = path.string()});
+  return SE3(SO3(Eigen::Quaterniond(rotation)), m.topRightCorner<3, 1>());
+}
+
+// Without --markers: the map's dense cloud (its keyframes' depth from --sequence) registered to
+// the scan's points (registration/align/markerless.hpp), the map moved by the result.
+void register_markerless(const RegisterArgs& a) {
+  if (a.scan.empty() || a.sequence.empty())
+    throw Error(
+        "without --markers, the map is registered by its dense cloud: give --scan and "
+        "--sequence (the recording the map was built from)",
+        {.field = "--markers"});
+  if (a.level != "cloud")
+    throw Error("level " + a.level + " needs --markers (without them the level is cloud)",
+                {.field = "--level"});
+  { const AtomicFile probe(a.out); }
+  const std::optional<SE3> initial =
+      a.initial.empty() ? std::nullopt : std::optional<SE3>(read_initial(a.initial));
+  align::ScanCloudOptions cloud_options;
+  cloud_options.voxel_size = a.voxel;
+  align::ScanCloudStats cloud_stats;
+  const render::PointCloud scan = read_scan_points(a, cloud_options, cloud_stats);
+  const slam::bow::Vocabulary vocabulary = load_vocabulary(a.vocabulary);
+  slam::mapdb::LoadedMap loaded = slam::mapdb::load_map(a.map, vocabulary, {.rebuild_bow = false});
+  if (loaded.metadata.frame_name != "slam")
+    throw Error("the map is already in frame '" + loaded.metadata.frame_name + "'",
+                {.file = a.map.string(), .field = "metadata.frame_name"});
+  const SlamInputs recording = load_slam_inputs(a.sequence, {});
+  align::MarkerlessOptions options;
+  options.global.gravity = a.gravity;
+  const align::MarkerlessResult r =
+      align::register_map_markerless(loaded.map, *recording.sequence,
+                                     slam::mapdb::camera_of(loaded, a.map), scan, options, initial);
+  const align::GlobalRegistrationReport& g = r.global;
+  const Json summary = {{"level", "cloud"},
+                        {"scan_from_slam", json_row_major(r.scan_from_slam.to_se3().matrix())},
+                        {"fitness", g.fitness},
+                        {"inlier_rmse_m", g.rmse},
+                        {"overlap", g.overlap},
+                        {"runner_up_fitness", g.runner_up},
+                        {"feature_matches", g.matches},
+                        {"from_initial", g.from_initial},
+                        {"map_cloud_points", r.map_cloud_points},
+                        {"keyframes_fused", r.map_cloud.frames_used},
+                        {"ms", g.ms}};
+  slam::mapdb::MapMetadata metadata = loaded.metadata;
+  metadata.frame_name = "scan";
+  metadata.frame_from_slam = r.scan_from_slam;
+  metadata.registration = summary.dump();
+  slam::mapdb::save_map(loaded.map, metadata, a.out);
+  if (!a.report.empty()) write_report_json(a.report, summary.dump());
+  if (a.json) {
+    Json j = summary;
+    j["out"] = a.out.string();
+    print_json(j);
+    return;
+  }
+  std::printf(
+      "registered (cloud, no markers) -> %s\n  map cloud: %zu points from %zu keyframes; "
+      "fitness %.3f, inlier RMSE %.1f mm, overlap %.3f, runner-up fitness %.3f (%s, %.1f s)\n",
+      a.out.c_str(), r.map_cloud_points, r.map_cloud.frames_used, g.fitness, 1e3 * g.rmse,
+      g.overlap, g.runner_up, g.from_initial ? "from --initial" : "global search", g.ms / 1e3);
+}
+
 void register_verb(const RegisterArgs& a) {
+  if (a.markers.empty()) return register_markerless(a);
+  if (a.level == "cloud")
+    throw Error("level cloud registers without markers: leave --markers out", {.field = "--level"});
   if (a.level == "pointcloud" && a.scan.empty())
     throw Error("level pointcloud needs the scan's points", {.field = "--scan"});
   const align::RegisterOptions options = options_of(a);
@@ -268,20 +353,29 @@ void register_verb(const RegisterArgs& a) {
 void add_register_verb(CLI::App& app) {
   auto a = std::make_shared<RegisterArgs>();
   CLI::App& cmd = *app.add_subcommand(
-      "register", "Register a SLAM map to the laser scan by its markers -> map in the scan frame");
+      "register",
+      "Register a SLAM map to the laser scan (by its markers, or by its dense cloud) -> map in "
+      "the scan frame");
   cmd.add_option("--map", a->map, "Map database to register (frame 'slam')")
       ->required()
       ->check(CLI::ExistingFile);
-  cmd.add_option("--markers", a->markers, "Marker map of the scan (coloc scan-markers)")
-      ->required()
+  cmd.add_option("--markers", a->markers,
+                 "Marker map of the scan (coloc scan-markers); without it, the map's dense cloud "
+                 "is registered to the scan (--scan, --sequence)")
       ->check(CLI::ExistingFile);
   cmd.add_option("--out", a->out, "Registered map database to write")->required();
   cmd.add_option("--level", a->level,
-                 "rough (markers' rigid fit), markers (+ marker BA) or pointcloud (+ refinement)")
-      ->check(CLI::IsMember({"rough", "markers", "pointcloud"}))
-      ->capture_default_str();
-  cmd.add_option("--scan", a->scan, "The scan (E57), for level pointcloud")
+                 "With markers: rough (markers' rigid fit), markers (+ marker BA) or pointcloud "
+                 "(+ refinement); without: cloud (the map's dense cloud onto the scan, rigid)")
+      ->check(CLI::IsMember({"rough", "markers", "pointcloud", "cloud"}));
+  cmd.add_option("--scan", a->scan, "The scan (E57, PLY or PCD), for levels pointcloud and cloud")
       ->check(CLI::ExistingFile);
+  cmd.add_option("--initial", a->initial,
+                 "Level cloud: a 4x4 scan_from_map to refine from, skipping the global search")
+      ->check(CLI::ExistingFile);
+  cmd.add_flag("--gravity", a->gravity,
+               "Level cloud: the map and the scan are both z-up (a map made with the IMU): "
+               "search yaw and translation only");
   cmd.add_option("--report", a->report,
                  "Directory for the report (registration.json; level pointcloud: Figure 5 PNGs)");
   cmd.add_option("--sequence", a->sequence,
@@ -319,7 +413,11 @@ void add_register_verb(CLI::App& app) {
                  "Marker BA: information of a marker corner relative to a level-0 keypoint")
       ->capture_default_str();
   cmd.add_flag("--json", a->json, "Machine-readable summary on stdout");
-  cmd.callback([a] { register_verb(*a); });
+  cmd.callback([a] {
+    // The level's default follows the input: markers, or the dense cloud without them.
+    if (a->level.empty()) a->level = a->markers.empty() ? "cloud" : "markers";
+    register_verb(*a);
+  });
 }
 
 }  // namespace coloc::cli

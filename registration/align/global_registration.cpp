@@ -12,6 +12,7 @@
 #include <numbers>
 #include <random>
 #include <sstream>
+#include <unordered_map>
 
 #include "registration/align/scan_cloud.hpp"
 #include "slam/core/align.hpp"
@@ -77,9 +78,57 @@ Eigen::Vector3d xyz(const pcl::PointNormal& p) {
   return {p.x, p.y, p.z};
 }
 
+// Nearest point within `reach` through a hash grid of cells `reach` wide (27 cells a query).
+// ICP and scoring ask millions of such questions; PCL's k-d tree enters an OpenMP region per
+// query, which costs more than the search on a busy 2-core machine.
+class NearestGrid {
+ public:
+  NearestGrid(const Cloud& cloud, double reach) : cloud_(cloud), reach_(reach) {
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      cells_[key(cell_of(xyz(cloud[i])))].push_back(static_cast<int>(i));
+  }
+  // Index of the nearest point within reach, or -1; its squared distance in `distance2`.
+  int nearest(const Eigen::Vector3d& q, double* distance2) const {
+    const Eigen::Vector3i c = cell_of(q);
+    int best = -1;
+    double best_d2 = reach_ * reach_;
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const auto it = cells_.find(key(c + Eigen::Vector3i(dx, dy, dz)));
+          if (it == cells_.end()) continue;
+          for (const int i : it->second) {
+            const double d2 = (xyz(cloud_[static_cast<std::size_t>(i)]) - q).squaredNorm();
+            if (d2 <= best_d2) {
+              best_d2 = d2;
+              best = i;
+            }
+          }
+        }
+    if (distance2 != nullptr) *distance2 = best_d2;
+    return best;
+  }
+
+ private:
+  Eigen::Vector3i cell_of(const Eigen::Vector3d& p) const {
+    return (p / reach_).array().floor().cast<int>();
+  }
+  static std::uint64_t key(const Eigen::Vector3i& c) {
+    const auto part = [](int v) { return static_cast<std::uint64_t>(v + (1 << 20)) & 0x1fffffu; };
+    return (part(c.x()) << 42) | (part(c.y()) << 21) | part(c.z());
+  }
+  const Cloud& cloud_;
+  double reach_;
+  std::unordered_map<std::uint64_t, std::vector<int>> cells_;
+};
+
 // Mutual nearest neighbours in descriptor space: (map index, scan index).
 std::vector<std::pair<int, int>> mutual_matches(const Features& map, const Features& scan) {
+  // Approximate search: exact nearest neighbours in 33 dimensions cost minutes on a room's
+  // features, and a near-best descriptor serves RANSAC as well (the mutual check still holds).
   pcl::KdTreeFLANN<pcl::FPFHSignature33> scan_tree, map_tree;
+  scan_tree.setEpsilon(2.0f);
+  map_tree.setEpsilon(2.0f);
   scan_tree.setInputCloud(std::make_shared<Features>(scan));
   map_tree.setInputCloud(std::make_shared<Features>(map));
   std::vector<int> index(1);
@@ -134,25 +183,18 @@ struct Scored {
   double fitness = 0.0, rmse = 0.0;
 };
 
-// Fitness and inlier RMSE of `map` moved by `t` against the scan's k-d tree.
-Scored score(const Cloud& map, const pcl::KdTreeFLANN<pcl::PointNormal>& scan, const SE3& t,
-             double inlier) {
-  std::vector<int> index(1);
-  std::vector<float> distance(1);
+// Fitness and inlier RMSE of `map` moved by `t` against the scan's grid (reach: the inlier
+// distance).
+Scored score(const Cloud& map, const NearestGrid& scan, const SE3& t) {
   std::size_t inliers = 0;
   double sum = 0.0;
   for (const pcl::PointNormal& p : map) {
     const Eigen::Vector3d q = t * xyz(p);
     if (!q.allFinite()) continue;
-    pcl::PointNormal query = p;  // every field valid: the k-d tree checks them all
-    query.x = static_cast<float>(q.x());
-    query.y = static_cast<float>(q.y());
-    query.z = static_cast<float>(q.z());
-    if (scan.nearestKSearch(query, 1, index, distance) != 1) continue;
-    if (distance[0] <= inlier * inlier) {
-      ++inliers;
-      sum += distance[0];
-    }
+    double d2 = 0.0;
+    if (scan.nearest(q, &d2) < 0) continue;
+    ++inliers;
+    sum += d2;
   }
   Scored s{t};
   s.fitness = map.empty() ? 0.0 : static_cast<double>(inliers) / static_cast<double>(map.size());
@@ -184,27 +226,20 @@ std::vector<Level> icp_levels(const render::PointCloud& map_cloud,
 // point-to-plane ICP aborts there), and the verdict sees the freedom through its probes.
 SE3 refine(const std::vector<Level>& levels, SE3 t, const GlobalRegistrationOptions& o,
            std::size_t levels_used) {
-  std::vector<int> index(1);
-  std::vector<float> distance(1);
   for (std::size_t k = 0; k < std::min(levels.size(), levels_used); ++k) {
     const double reach = 3.0 * o.icp_voxels[k];
-    pcl::KdTreeFLANN<pcl::PointNormal> tree;
-    tree.setInputCloud(levels[k].scan);
     const Cloud& map = *levels[k].map;
     const Cloud& scan = *levels[k].scan;
+    const NearestGrid grid(scan, reach);
     for (int it = 0; it < o.icp_iterations; ++it) {
       Eigen::Matrix<double, 6, 6> h = Eigen::Matrix<double, 6, 6>::Zero();
       Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
       std::size_t used = 0;
       for (const pcl::PointNormal& p : map) {
         const Eigen::Vector3d q = t * xyz(p);
-        pcl::PointNormal query = p;
-        query.x = static_cast<float>(q.x());
-        query.y = static_cast<float>(q.y());
-        query.z = static_cast<float>(q.z());
-        if (tree.nearestKSearch(query, 1, index, distance) != 1 || distance[0] > reach * reach)
-          continue;
-        const pcl::PointNormal& s = scan[static_cast<std::size_t>(index[0])];
+        const int nearest = grid.nearest(q, nullptr);
+        if (nearest < 0) continue;
+        const pcl::PointNormal& s = scan[static_cast<std::size_t>(nearest)];
         const Eigen::Vector3d n(s.normal_x, s.normal_y, s.normal_z);
         const double r = n.dot(q - xyz(s));
         Eigen::Matrix<double, 6, 1> j;
@@ -291,9 +326,8 @@ GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
   GlobalRegistrationReport report;
   report.map_points = map->size();
   report.scan_points = scan->size();
-  pcl::KdTreeFLANN<pcl::PointNormal> scan_tree;
-  scan_tree.setInputCloud(scan);
   const double inlier = o.inlier_factor * v;
+  const NearestGrid scan_grid(*scan, inlier);
 
   std::vector<SE3> proposals;
   if (initial) {
@@ -366,13 +400,17 @@ GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
   const std::vector<Level> levels = icp_levels(map_cloud, scan_cloud, o);
   std::vector<Scored> refined;
   for (const SE3& t : proposals)
-    refined.push_back(score(*map, scan_tree, refine(levels, t, o, 1), inlier));
+    refined.push_back(score(*map, scan_grid, refine(levels, t, o, 1)));
   std::sort(refined.begin(), refined.end(),
             [](const Scored& a, const Scored& b) { return a.fitness > b.fitness; });
   for (const SE3& t : probes(refined.front().scan_from_map, *map, o.gravity))
-    refined.push_back(score(*map, scan_tree, refine(levels, t, o, 1), inlier));
-  const Scored winner = score(
-      *map, scan_tree, refine(levels, refined.front().scan_from_map, o, levels.size()), inlier);
+    refined.push_back(score(*map, scan_grid, refine(levels, t, o, 1)));
+  // The best of proposals and probes (a probe may find a better fit than every proposal), then
+  // refined on every level; the runner-up is the best solution far from it.
+  std::stable_sort(refined.begin(), refined.end(),
+                   [](const Scored& a, const Scored& b) { return a.fitness > b.fitness; });
+  const Scored winner =
+      score(*map, scan_grid, refine(levels, refined.front().scan_from_map, o, levels.size()));
   for (const Scored& s : refined)
     if (distinct(s.scan_from_map, winner.scan_from_map, o))
       report.runner_up = std::max(report.runner_up, s.fitness);
@@ -381,17 +419,14 @@ GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
   report.rmse = winner.rmse;
   {
     // Overlap: the share of the scan's voxels that the moved map reaches.
-    pcl::KdTreeFLANN<pcl::PointNormal> map_tree;
-    auto moved = std::make_shared<Cloud>(*map);
-    for (auto& p : *moved) {
+    Cloud moved = *map;
+    for (auto& p : moved) {
       const Eigen::Vector3d q = winner.scan_from_map * xyz(p);
       p.x = static_cast<float>(q.x());
       p.y = static_cast<float>(q.y());
       p.z = static_cast<float>(q.z());
     }
-    map_tree.setInputCloud(moved);
-    const Scored covered = score(*scan, map_tree, SE3(), inlier);
-    report.overlap = covered.fitness;
+    report.overlap = score(*scan, NearestGrid(moved, inlier), SE3()).fitness;
   }
   report.ms = watch.elapsed_ms();
   spdlog::debug(

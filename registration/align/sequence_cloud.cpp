@@ -49,11 +49,17 @@ void SequenceCloudOptions::check() const {
 render::PointCloud fuse_sequence(
     const dataset::Sequence& sequence, const Camera& camera, const SequenceCloudOptions& o,
     SequenceCloudStats* stats, const std::function<void(std::uint64_t, std::uint64_t)>& progress) {
-  o.check();
-  const Trajectory& truth = sequence.ground_truth();
-  if (truth.empty())
+  if (sequence.ground_truth().empty())
     throw Error("the sequence has no ground truth to place its frames with",
                 {.file = sequence.folder().string()});
+  return fuse_posed_frames(sequence, camera, sequence.ground_truth(), o, stats, progress);
+}
+
+render::PointCloud fuse_posed_frames(
+    const dataset::Sequence& sequence, const Camera& camera, const Trajectory& truth,
+    const SequenceCloudOptions& o, SequenceCloudStats* stats,
+    const std::function<void(std::uint64_t, std::uint64_t)>& progress) {
+  o.check();
   Trajectory frames;
   for (std::size_t i = 0; i < sequence.size(); i += o.every)
     frames.push_back({sequence.timestamp(i), SE3()});
@@ -104,9 +110,9 @@ render::PointCloud fuse_sequence(
     ++s.frames_used;
   }
   if (s.frames_used == 0)
-    throw Error("no frame had a ground-truth pose within " + std::to_string(o.max_pose_dt) +
-                    " s and readable depth",
-                {.file = sequence.folder().string()});
+    throw Error(
+        "no frame had a pose within " + std::to_string(o.max_pose_dt) + " s and readable depth",
+        {.file = sequence.folder().string()});
   render::PointCloud cloud;
   cloud.splat_size = static_cast<float>(o.voxel_size);
   cloud.points.reserve(grid.size());

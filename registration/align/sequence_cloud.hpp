@@ -15,6 +15,7 @@
 
 #include "registration/render/scene.hpp"
 #include "slam/core/camera.hpp"
+#include "slam/core/trajectory.hpp"
 #include "slam/dataset/sequence.hpp"
 
 namespace coloc::registration::align {
@@ -39,6 +40,14 @@ struct SequenceCloudStats {
 render::PointCloud fuse_sequence(
     const dataset::Sequence& sequence, const Camera& camera,
     const SequenceCloudOptions& options = {}, SequenceCloudStats* stats = nullptr,
+    const std::function<void(std::uint64_t, std::uint64_t)>& progress = {});
+
+// The same with the poses given (world_from_cam by timestamp; a SLAM map's keyframes for its
+// dense cloud): every `every`-th frame of the sequence that has one of `poses` within
+// `max_pose_dt`.
+render::PointCloud fuse_posed_frames(
+    const dataset::Sequence& sequence, const Camera& camera, const Trajectory& poses,
+    const SequenceCloudOptions& options, SequenceCloudStats* stats = nullptr,
     const std::function<void(std::uint64_t, std::uint64_t)>& progress = {});
 
 // Writes `cloud` as PLY (float xyz, uchar rgb) or as E57 (one scan, xyz to 0.1 mm, rgb), by the
