@@ -255,6 +255,9 @@ namespace Coloc
             socket = new Socket(AddressFamily.InterNetwork, SocketType.Dgram, ProtocolType.Udp);
             try
             {
+                // Mono's UDP sockets allow a second bind to a port in use (seen with mono 6.8):
+                // two clients would then share the poses. One owner per port, as in coloc.
+                socket.SetSocketOption(SocketOptionLevel.Socket, SocketOptionName.ReuseAddress, false);
                 socket.Bind(new IPEndPoint(IPAddress.Parse(options.BindAddress), options.Port));
             }
             catch (Exception e) when (e is SocketException || e is FormatException)
