@@ -40,6 +40,10 @@ mcs -warnaserror -target:library -out:"$bin/Coloc.Core.dll" "$package"/Runtime/C
 mcs -warnaserror -target:library -r:"$bin/Coloc.Core.dll" -r:"$nunit_dll" \
   -out:"$bin/Coloc.Core.Tests.dll" "$package"/Tests/Core/*.cs
 mcs -warnaserror -r:"$bin/Coloc.Core.dll" -out:"$bin/MissingLibraryProbe.exe" "$probe_source"
+# The MonoBehaviours, type-checked against a stub of the UnityEngine API they use (not run).
+mcs -warnaserror -target:library -out:"$bin/UnityEngine.dll" "$(dirname "$probe_source")/UnityEngineStub.cs"
+mcs -warnaserror -target:library -r:"$bin/Coloc.Core.dll" -r:"$bin/UnityEngine.dll" \
+  -out:"$bin/Coloc.Unity.dll" "$package"/Runtime/Unity/*.cs
 cp "$nunit_dll" "$bin/"
 
 fixture="$work/fixture/twin_room_s1_10s_v1"
