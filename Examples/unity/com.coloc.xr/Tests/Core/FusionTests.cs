@@ -77,6 +77,23 @@ namespace Coloc.Tests
         }
 
         [Test]
+        public void DefaultsMirrorTheLibrarys()
+        {
+            TestEnvironment.RequireLibraries();
+            FusionOptions lib = FusionOptions.FromLibrary(), ours = new FusionOptions();
+            Assert.AreEqual(lib.ProcessNoise, ours.ProcessNoise);
+            Assert.AreEqual(lib.MeasurementNoise, ours.MeasurementNoise);
+            Assert.AreEqual(lib.TranslationSigma, ours.TranslationSigma);
+            Assert.AreEqual(lib.RotationSigma, ours.RotationSigma);
+            Assert.AreEqual(lib.Gating, ours.Gating);
+            Assert.AreEqual(lib.GateChi2, ours.GateChi2);
+            Assert.AreEqual(lib.TimeAlignment, ours.TimeAlignment);
+            Assert.AreEqual(lib.HoldAfter, ours.HoldAfter);
+            Assert.AreEqual(lib.MaxCorrectionSpeed, ours.MaxCorrectionSpeed);
+            Assert.AreEqual(lib.MaxCorrectionRate, ours.MaxCorrectionRate);
+        }
+
+        [Test]
         public void UnityFrameApiIsTheScanApiConverted()
         {
             TestEnvironment.RequireLibraries();
