@@ -80,5 +80,5 @@ status=0
 ) || status=$?
 echo "run_unity_tests: figures"
 sed 's/^/  /' "$figures"
-echo "run_unity_tests: fixture $((fixture_done - start)) s, tests $(($(date +%s) - fixture_done)) s, exit $status"
+echo "run_unity_tests: compile and fixture $((fixture_done - start)) s, tests $(($(date +%s) - fixture_done)) s, exit $status"
 exit "$status"
