@@ -69,13 +69,16 @@ fixture="$work/fixture/twin_room_s1_10s_v1"
 fixture_done=$(date +%s)
 
 figures="$work/figures.txt"
+# The tests' scratch folders (Path.GetTempPath follows TMPDIR): inside the build, renewed per run.
+rm -rf "$work/tmp"
+mkdir -p "$work/tmp"
 : >"$figures"
 status=0
 (
   cd "$bin"
   LD_LIBRARY_PATH="$libs${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}" \
     COLOC_BIN="$coloc" COLOC_UNITY_FIXTURE="$fixture" COLOC_VOCABULARY="$vocabulary" \
-    COLOC_UNITY_PROBE="$bin/MissingLibraryProbe.exe" COLOC_UNITY_FIGURES="$figures" \
+    COLOC_UNITY_PROBE="$bin/MissingLibraryProbe.exe" COLOC_UNITY_FIGURES="$figures" TMPDIR="$work/tmp" \
     nunit-console -nologo -noshadow Coloc.Core.Tests.dll -xml="$work/TestResult.xml"
 ) || status=$?
 echo "run_unity_tests: figures"
