@@ -236,4 +236,32 @@ const char* coloc_fusion_last_error(const coloc_fusion* fusion) {
   return fusion->last_error.c_str();
 }
 
+size_t coloc_fusion_struct_size(int which) {
+  switch (which) {
+    case COLOC_FUSION_STRUCT_POSE:
+      return sizeof(coloc_pose);
+    case COLOC_FUSION_STRUCT_OPTIONS:
+      return sizeof(coloc_fusion_options);
+    case COLOC_FUSION_STRUCT_STATS:
+      return sizeof(coloc_fusion_stats);
+    default:
+      return 0;
+  }
+}
+
+const char* coloc_fusion_status_name(int status) {
+  switch (status) {
+    case COLOC_OK:
+      return "COLOC_OK";
+    case COLOC_ERROR_INVALID_ARGUMENT:
+      return "COLOC_ERROR_INVALID_ARGUMENT";
+    case COLOC_ERROR_NETWORK:
+      return "COLOC_ERROR_NETWORK";
+    case COLOC_ERROR_INTERNAL:
+      return "COLOC_ERROR_INTERNAL";
+    default:
+      return "unknown status";
+  }
+}
+
 }  // extern "C"

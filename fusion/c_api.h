@@ -118,6 +118,19 @@ COLOC_FUSION_API coloc_status coloc_fusion_get_stats(const coloc_fusion* fusion,
 /* The message of the last failed call on this handle ("" if none); valid until the next call. */
 COLOC_FUSION_API const char* coloc_fusion_last_error(const coloc_fusion* fusion);
 
+/* For bindings in other languages (C# P/Invoke, Python ctypes) that mirror the structs above:
+ * sizeof of each, so a binding compares them with its own copies when it loads and a layout
+ * drift is an error at load instead of garbage at run time. 0 for an unknown id. */
+enum {
+  COLOC_FUSION_STRUCT_POSE = 0,    /* coloc_pose */
+  COLOC_FUSION_STRUCT_OPTIONS = 1, /* coloc_fusion_options */
+  COLOC_FUSION_STRUCT_STATS = 2    /* coloc_fusion_stats */
+};
+COLOC_FUSION_API size_t coloc_fusion_struct_size(int which);
+/* The name of a status code ("COLOC_ERROR_NETWORK"), or "unknown status"; static storage. Lets
+ * a binding's exception say which code it was without copying the enum's spelling. */
+COLOC_FUSION_API const char* coloc_fusion_status_name(int status);
+
 #ifdef __cplusplus
 }
 #endif

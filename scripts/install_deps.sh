@@ -20,6 +20,7 @@ packages=(
   nodejs chromium chromium-driver
   mkdocs
   pcl-tools
+  mono-devel nunit-console
 )
 
 missing=()

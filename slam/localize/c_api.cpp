@@ -149,4 +149,23 @@ const char* coloc_localizer_last_error(const coloc_localizer* h) {
   return h ? h->error.c_str() : "null handle";
 }
 
+size_t coloc_localize_pose_size(void) {
+  return sizeof(coloc_localize_pose);
+}
+
+const char* coloc_localize_status_name(int status) {
+  switch (status) {
+    case COLOC_LOCALIZE_OK:
+      return "COLOC_LOCALIZE_OK";
+    case COLOC_LOCALIZE_ERROR_INVALID_ARGUMENT:
+      return "COLOC_LOCALIZE_ERROR_INVALID_ARGUMENT";
+    case COLOC_LOCALIZE_ERROR_FILE:
+      return "COLOC_LOCALIZE_ERROR_FILE";
+    case COLOC_LOCALIZE_ERROR_INTERNAL:
+      return "COLOC_LOCALIZE_ERROR_INTERNAL";
+    default:
+      return "unknown status";
+  }
+}
+
 }  // extern "C"

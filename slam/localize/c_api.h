@@ -90,6 +90,12 @@ COLOC_LOCALIZE_API int coloc_localizer_map_info(const coloc_localizer* localizer
 /* The message of the last failed call on this handle ("" if none); valid until the next call. */
 COLOC_LOCALIZE_API const char* coloc_localizer_last_error(const coloc_localizer* localizer);
 
+/* sizeof(coloc_localize_pose), for bindings in other languages that mirror the struct: compared
+ * with their own copy at load, so a layout drift fails there and not in a frame's output. */
+COLOC_LOCALIZE_API size_t coloc_localize_pose_size(void);
+/* The name of a status code ("COLOC_LOCALIZE_ERROR_FILE"), or "unknown status"; static. */
+COLOC_LOCALIZE_API const char* coloc_localize_status_name(int status);
+
 #ifdef __cplusplus
 }
 #endif

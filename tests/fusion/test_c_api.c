@@ -80,6 +80,15 @@ static void check_options_and_arguments(void) {
   coloc_fusion_destroy(NULL);
   memset(&pose, 0, sizeof(pose));
   CHECK(coloc_fusion_push_xr_pose(NULL, &pose, NULL, NULL) == COLOC_ERROR_INVALID_ARGUMENT);
+
+  /* What bindings in other languages check at load: the structs' sizes and the status names. */
+  CHECK(coloc_fusion_struct_size(COLOC_FUSION_STRUCT_POSE) == sizeof(coloc_pose));
+  CHECK(coloc_fusion_struct_size(COLOC_FUSION_STRUCT_OPTIONS) == sizeof(coloc_fusion_options));
+  CHECK(coloc_fusion_struct_size(COLOC_FUSION_STRUCT_STATS) == sizeof(coloc_fusion_stats));
+  CHECK(coloc_fusion_struct_size(3) == 0 && coloc_fusion_struct_size(-1) == 0);
+  CHECK(strcmp(coloc_fusion_status_name(COLOC_ERROR_NETWORK), "COLOC_ERROR_NETWORK") == 0);
+  CHECK(strcmp(coloc_fusion_status_name(COLOC_OK), "COLOC_OK") == 0);
+  CHECK(strcmp(coloc_fusion_status_name(99), "unknown status") == 0);
 }
 
 /* Headset and global poses over UDP from liblo to the handle's port; fused poses back to a

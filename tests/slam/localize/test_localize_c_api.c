@@ -30,6 +30,14 @@ int main(void) {
     return 1;
   }
   coloc_localizer_close(NULL);
+  /* The helpers of bindings in other languages: the struct's size and the status names. */
+  if (coloc_localize_pose_size() != sizeof(coloc_localize_pose) ||
+      strcmp(coloc_localize_status_name(COLOC_LOCALIZE_ERROR_FILE), "COLOC_LOCALIZE_ERROR_FILE") !=
+          0 ||
+      strcmp(coloc_localize_status_name(42), "unknown status") != 0) {
+    printf("coloc_localize_pose_size / coloc_localize_status_name disagree with the header\n");
+    return 1;
+  }
   printf("ok: %s\n", error);
   return 0;
 }
