@@ -398,22 +398,38 @@ GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
   // proposals, and the winner's probes, refined; the best of them far from the winner is the
   // runner-up.
   const std::vector<Level> levels = icp_levels(map_cloud, scan_cloud, o);
+  if (levels.empty())
+    throw Error("too few points on the ICP grids to refine", {.field = "registration"});
   std::vector<Scored> refined;
   for (const SE3& t : proposals)
     refined.push_back(score(*map, scan_grid, refine(levels, t, o, 1)));
   std::sort(refined.begin(), refined.end(),
             [](const Scored& a, const Scored& b) { return a.fitness > b.fitness; });
-  for (const SE3& t : probes(refined.front().scan_from_map, *map, o.gravity))
+  for (const SE3& t :
+       initial ? std::vector<SE3>{} : probes(refined.front().scan_from_map, *map, o.gravity))
     refined.push_back(score(*map, scan_grid, refine(levels, t, o, 1)));
-  // The best of proposals and probes (a probe may find a better fit than every proposal), then
-  // refined on every level; the runner-up is the best solution far from it.
+  // The best of proposals and probes (a probe may find a better fit than every proposal), and
+  // the best two far from it, refined on every level and judged there: at the coarse level's
+  // generous inlier distance a shift along a large wall still looks good; at the finest it
+  // does not, unless the space really repeats.
   std::stable_sort(refined.begin(), refined.end(),
                    [](const Scored& a, const Scored& b) { return a.fitness > b.fitness; });
-  const Scored winner =
-      score(*map, scan_grid, refine(levels, refined.front().scan_from_map, o, levels.size()));
-  for (const Scored& s : refined)
-    if (distinct(s.scan_from_map, winner.scan_from_map, o))
-      report.runner_up = std::max(report.runner_up, s.fitness);
+  const Level& finest = levels.back();
+  const NearestGrid fine_grid(*finest.scan, o.inlier_factor * o.icp_voxels[levels.size() - 1]);
+  const auto judge = [&](const SE3& t) {
+    return score(*finest.map, fine_grid, refine(levels, t, o, levels.size()));
+  };
+  const Scored winner = judge(refined.front().scan_from_map);
+  // With a guess the user vouches for the basin: only the fit is judged, not its uniqueness.
+  int rivals = initial ? 2 : 0;
+  for (const Scored& s : refined) {
+    if (rivals == 2) break;
+    if (!distinct(s.scan_from_map, winner.scan_from_map, o)) continue;
+    ++rivals;
+    const Scored rival = judge(s.scan_from_map);
+    if (distinct(rival.scan_from_map, winner.scan_from_map, o))
+      report.runner_up = std::max(report.runner_up, rival.fitness);
+  }
   report.scan_from_map = winner.scan_from_map;
   report.fitness = winner.fitness;
   report.rmse = winner.rmse;

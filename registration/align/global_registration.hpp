@@ -57,8 +57,9 @@ struct GlobalRegistrationReport {
   double ms = 0.0;
 };
 
-// `initial` (optional): scan_from_map to refine from, skipping the global search. Throws
-// coloc::Error (field "registration") when the result is weak or ambiguous, with the figures.
+// `initial` (optional): scan_from_map to refine from, skipping the global search and the
+// uniqueness test (the caller vouches for the basin). Throws coloc::Error (field
+// "registration") when the result is weak or ambiguous, with the figures.
 GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
                                          const render::PointCloud& scan_cloud,
                                          const GlobalRegistrationOptions& options = {},
