@@ -91,9 +91,55 @@ def main():
         print("too few:", r.stderr.strip().splitlines()[-1:] if r.stderr else "")
         ok &= check("failed runs leave the output", before == (os.path.getmtime(out),
                                                                 os.path.getsize(out)))
+        r = run(common + ["--out", os.path.join(tmp, "rough.db"), "--level", "rough"])
+        ok &= check("level rough", r.returncode == 0)
         r = run(common + ["--out", os.path.join(tmp, "two.db"), "--only-markers",
                           ",".join(map(str, used[:2])), "--min-markers", "2", "--level", "rough"])
         ok &= check("two markers allowed", r.returncode == 0)
+
+        # Without markers (level cloud): the map's dense cloud onto the scan, from the markers'
+        # rigid transform moved by 5 cm (a user's --initial). The written map is in the scan's
+        # frame and its keyframes land within 2 cm of where the markers put them.
+        t = summary["scan_from_slam"]
+        qx, qy, qz, qw = t["quaternion_xyzw"]
+        rot = [[1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
+               [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
+               [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)]]
+        shifted = [t["translation"][0] + 0.05, t["translation"][1] - 0.03, t["translation"][2]]
+        initial = os.path.join(tmp, "initial.txt")
+        with open(initial, "w") as f:
+            for row in range(3):
+                f.write(" ".join(str(v) for v in rot[row] + [shifted[row]]) + "\n")
+            f.write("0 0 0 1\n")
+        cloud_out = os.path.join(tmp, "cloud.db")
+        scan = os.path.join(tmp, "twin", "scan", "scan.e57")
+        sequence = os.path.join(tmp, "twin", "sequence")
+        r = run([coloc, "register", "--map", os.path.join(tmp, "map.db"), "--scan", scan,
+                 "--sequence", sequence, "--initial", initial, "--out", cloud_out, "--json"])
+        if check("register without markers", r.returncode == 0):
+            cloud = json.loads(r.stdout)
+            print("level cloud:", {k: cloud[k] for k in ("fitness", "inlier_rmse_m", "overlap")})
+            ok &= check("level cloud", cloud["level"] == "cloud" and cloud["fitness"] > 0.35)
+            ok &= check("cloud map in the scan frame", json.loads(
+                run([coloc, "mapdb", "info", cloud_out, "--json"]).stdout)["frame_name"] == "scan")
+            # Both maps' keyframes against the twin's truth, without alignment: the co-location
+            # error of the map, by its shape and by the markers' rigid fit.
+            truth = os.path.join(sequence, "groundtruth.txt")
+            errors = {}
+            for name, db in (("markers", os.path.join(tmp, "rough.db")), ("cloud", cloud_out)):
+                kf = os.path.join(tmp, f"kf_{name}.txt")
+                run([coloc, "mapdb", "export-trajectory", db, kf])
+                ate = run([coloc, "eval", "ate", truth, kf, "--align", "none", "--json"])
+                errors[name] = (json.loads(ate.stdout)["translation_m"]["rmse"]
+                                if ate.returncode == 0 else 1e9)
+            print("keyframe co-location RMSE (m), rigid fits:", errors)
+            ok &= check("cloud as good as the markers' rigid fit",
+                        errors["cloud"] < max(errors["markers"] + 0.01, 0.03))
+        else:
+            print(r.stderr[-2000:])
+        r = run([coloc, "register", "--map", os.path.join(tmp, "map.db"), "--scan", scan,
+                 "--out", os.path.join(tmp, "nothing.db")])
+        ok &= check("no markers needs the recording", r.returncode == 1 and "--sequence" in r.stderr)
     return 0 if ok else 1
 
 
