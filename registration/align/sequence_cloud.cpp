@@ -132,14 +132,7 @@ void write_point_cloud(const std::filesystem::path& path, const render::PointClo
                        const std::string& description) {
   const std::string extension = path.extension().string();
   if (extension == ".ply") {
-    PlyWriter ply(path,
-                  {{"x", PlyType::kFloat},
-                   {"y", PlyType::kFloat},
-                   {"z", PlyType::kFloat},
-                   {"red", PlyType::kUchar},
-                   {"green", PlyType::kUchar},
-                   {"blue", PlyType::kUchar}},
-                  description);
+    PlyWriter ply(path, ply_xyz_rgb(), description);
     for (std::size_t i = 0; i < cloud.points.size(); ++i) {
       const Eigen::Vector3f& p = cloud.points[i];
       const auto& c = cloud.colours[i];

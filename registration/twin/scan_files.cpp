@@ -49,13 +49,7 @@ ScanFileWriter::ScanFileWriter(const std::filesystem::path& e57_path,
   wo.library_version = "coloc twin generator";
   impl_->e57_file = std::make_unique<AtomicFile>(e57_path);
   impl_->e57 = std::make_unique<e57::Writer>(impl_->e57_file->temp_path(), wo);
-  impl_->ply = std::make_unique<PlyWriter>(ply_path,
-                                           std::vector<PlyProperty>{{"x", PlyType::kFloat},
-                                                                    {"y", PlyType::kFloat},
-                                                                    {"z", PlyType::kFloat},
-                                                                    {"red", PlyType::kUchar},
-                                                                    {"green", PlyType::kUchar},
-                                                                    {"blue", PlyType::kUchar}},
+  impl_->ply = std::make_unique<PlyWriter>(ply_path, ply_xyz_rgb(),
                                            "coloc digital twin scan, world frame, metres");
   impl_->seed = seed;
   impl_->jpeg_quality = jpeg_quality;

@@ -32,6 +32,11 @@ std::size_t type_size(PlyType type) {
 
 }  // namespace
 
+std::vector<PlyProperty> ply_xyz_rgb() {
+  return {{"x", PlyType::kFloat},   {"y", PlyType::kFloat},     {"z", PlyType::kFloat},
+          {"red", PlyType::kUchar}, {"green", PlyType::kUchar}, {"blue", PlyType::kUchar}};
+}
+
 PlyWriter::PlyWriter(std::filesystem::path target, std::vector<PlyProperty> properties,
                      const std::string& comment)
     : file_(std::move(target)), out_(file_.temp_path(), std::ios::binary | std::ios::trunc) {

@@ -22,6 +22,9 @@ struct PlyProperty {
   PlyType type;
 };
 
+// The common layout: float x, y, z and uchar red, green, blue (a coloured cloud).
+std::vector<PlyProperty> ply_xyz_rgb();
+
 class PlyWriter {
  public:
   // Claims `target` at once (an unwritable path is a coloc::Error naming it before any work).

@@ -50,14 +50,7 @@ Read read_all(const fs::path& path) {
 // Three points with colours, as PlyWriter writes them (binary little-endian).
 fs::path our_ply() {
   const fs::path path = temp("ours.ply");
-  PlyWriter ply(path,
-                {{"x", PlyType::kFloat},
-                 {"y", PlyType::kFloat},
-                 {"z", PlyType::kFloat},
-                 {"red", PlyType::kUchar},
-                 {"green", PlyType::kUchar},
-                 {"blue", PlyType::kUchar}},
-                "three points");
+  PlyWriter ply(path, ply_xyz_rgb(), "three points");
   ply.add(1.0f, 2.0f, 3.0f, std::uint8_t{255}, std::uint8_t{0}, std::uint8_t{0});
   ply.add(-1.5f, 0.25f, 10.0f, std::uint8_t{0}, std::uint8_t{128}, std::uint8_t{7});
   ply.add(0.0f, 0.0f, -4.0f, std::uint8_t{1}, std::uint8_t{2}, std::uint8_t{3});
