@@ -33,6 +33,20 @@ def free_udp_port():
     return port
 
 
+# Waits for what is bound to happen (a datagram on loopback, a child's output): the deadlines
+# only stop a stuck run, never a slow one (CI runs the suite on a busy 2-core machine).
+ARRIVAL_S = 60
+
+
+def wait_until(condition, timeout=ARRIVAL_S):
+    deadline = time.time() + timeout
+    while not condition():
+        if time.time() >= deadline:
+            return False
+        time.sleep(0.02)
+    return True
+
+
 def read_matrix(path, key):
     for line in open(path):
         if line.startswith(key + ":"):
@@ -76,12 +90,23 @@ def main():
     lines = []
     threading.Thread(target=lambda: [lines.append(l.split()) for l in dump.stdout],
                      daemon=True).start()
+    # oscdump listens once it prints a probe sent to it.
+    probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    ok &= wait_until(lambda: probe.sendto(b"/coloc/probe\0\0\0\0,\0\0\0",
+                                          ("127.0.0.1", dump_port)) > 0 and
+                     wait_until(lambda: any("/coloc/probe" in l for l in list(lines)), 0.2))
+    probe.close()
     log = os.path.join(tmp, "log.csv")
     session = subprocess.Popen([args.coloc, "session", "--config", config, "--listen", str(listen),
                                 "--publish", "osc.udp://127.0.0.1:%d" % dump_port, "--log", log,
-                                "--json"], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                text=True)
-    time.sleep(0.5)
+    # The node listens once it says so on stderr.
+    errors = []
+    threading.Thread(target=lambda: [errors.append(l) for l in session.stderr],
+                     daemon=True).start()
+    ok &= wait_until(lambda: any("OSC in on udp" in l for l in list(errors)) or
+                     session.poll() is not None)
 
     def send(*argv):
         subprocess.run(["oscsend", "127.0.0.1", str(listen)] + [str(a) for a in argv], check=True)
@@ -106,9 +131,15 @@ def main():
              0, "vive")
         send("/coloc/xr_controller", "diifffffffis", 7.0 + 0.01 * i, i, 1, *b[:3, 3], *q, 0,
              "quest")
-    time.sleep(0.5)
+    # Every message was handled once the last one of each system came out in the world frame.
+    def published(user, t):
+        address = "/coloc/users/%s/controller/0" % user
+        return any(address in l and abs(float(l[l.index(address) + 2]) - t) < 1e-6
+                   for l in list(lines))
+    ok &= wait_until(lambda: published("vive", 1.29) and published("quest", 7.29))
     session.send_signal(2)
-    out, _ = session.communicate(timeout=20)
+    out = session.stdout.read()
+    session.wait(timeout=600)
     dump.terminate()
     stats = json.loads(out.strip().splitlines()[-1])
     ok &= session.returncode == 0

@@ -55,10 +55,12 @@ struct DumpLine {
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
 };
 
-// Reads oscdump lines until one for `address` (with state `state` if >= 0) arrives.
-bool read_until(ChildProcess& dump, const std::string& address, int state, DumpLine& got) {
+// Reads oscdump lines until one for `address` (with state `state` if >= 0) arrives, waiting at
+// most timeout_ms for each line.
+bool read_until(ChildProcess& dump, const std::string& address, int state, DumpLine& got,
+                int timeout_ms = testing::kArrivalMs) {
   std::string line;
-  while (dump.read_line(line, 3000)) {
+  while (dump.read_line(line, timeout_ms)) {
     std::istringstream fields(line);
     std::string timetag;
     DumpLine d;
@@ -116,11 +118,14 @@ TEST_F(NodeTest, OscsendInOscdumpOutCountersForBadInput) {
   // send until it prints.
   DumpLine got;
   bool seen = false;
-  for (int i = 0; i < 20 && !seen; ++i) {
+  const auto deadline =
+      std::chrono::steady_clock::now() + std::chrono::milliseconds(testing::kArrivalMs);
+  for (int i = 0; !seen && std::chrono::steady_clock::now() < deadline; ++i) {
     ASSERT_EQ(run(oscsend(vive_port, "/coloc/xr_pose", "diifffffff",
                           head_args(10.0 + i, 10 + i, 2.0, 0.5, 1.6))),
               0);
-    seen = read_until(dump, "/coloc/users/vive/head", 1, got);
+    // A short wait per try: a pose sent before oscdump listened is not coming.
+    seen = read_until(dump, "/coloc/users/vive/head", 1, got, 500);
   }
   ASSERT_TRUE(seen) << "oscdump printed no vive head pose";
   EXPECT_EQ(got.types, "diifffffff");
