@@ -28,6 +28,7 @@
 #include "slam/core/error.hpp"
 #include "slam/core/input_file.hpp"
 #include "slam/core/progress.hpp"
+#include "slam/core/rigid.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/eval/trajectory_error.hpp"
@@ -89,11 +90,9 @@ SE3 read_cam_from_head(const fs::path& path) {
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c)
       t(r, c) = m.at<double>(r, c);
-  const Eigen::Matrix3d rotation = t.topLeftCorner<3, 3>();
-  if ((rotation.transpose() * rotation - Eigen::Matrix3d::Identity()).norm() > 1e-4 ||
-      rotation.determinant() < 0.0)
-    throw Error("the rotation part is not a rotation", {.file = path.string(), .field = key});
-  return SE3(SO3(Eigen::Quaterniond(rotation).normalized()), t.topRightCorner<3, 1>());
+  // NaN, a scaled or sheared rotation or a bad last row would put NaN or a wrong pose on the
+  // wire: the one rigid check of slam/core refuses them, naming the file and key.
+  return rigid_from_matrix(t, {.file = path.string(), .field = key});
 }
 
 // What the localizer runs on: the map, the settings and the sequence read with them.

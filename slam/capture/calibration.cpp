@@ -8,6 +8,7 @@
 
 #include "slam/capture/bytes.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/rigid.hpp"
 
 namespace coloc::capture {
 namespace {
@@ -332,7 +333,8 @@ DepthColorCalibration load_calibration_file(const std::filesystem::path& path, i
     for (int r = 0; r < 4; ++r)
       for (int col = 0; col < 4; ++col)
         pose(r, col) = m.at<double>(r, col);
-    c.color_from_depth = SE3::from_matrix(pose);
+    c.color_from_depth =
+        rigid_from_matrix(pose, {.file = path.string(), .field = "color_from_depth"});
   }
   return c;
 }

@@ -10,6 +10,7 @@
 
 #include "slam/core/error.hpp"
 #include "slam/core/input_file.hpp"
+#include "slam/core/rigid.hpp"
 
 namespace coloc::settings {
 namespace {
@@ -132,13 +133,8 @@ class KeyReader {
     for (int r = 0; r < 4; ++r)
       for (int c = 0; c < 4; ++c)
         t(r, c) = m.at<double>(r, c);
-    if (!t.allFinite()) fail(key, "expected finite numbers");
-    const Eigen::Matrix3d rot = t.topLeftCorner<3, 3>();
-    if ((rot * rot.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-4 ||
-        rot.determinant() < 0.0)
-      fail(key, "the upper-left 3x3 block is not a rotation");
-    if (!t.bottomRows<1>().isApprox(Eigen::RowVector4d(0, 0, 0, 1)))
-      fail(key, "the last row must be 0 0 0 1");
+    // The one rigid check of slam/core (finite, a rotation, last row 0 0 0 1).
+    if (const auto problem = rigid_problem(t)) fail(key, "not a rigid transform: " + *problem);
     return t;
   }
 

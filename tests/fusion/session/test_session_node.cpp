@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <numbers>
 #include <sstream>
 
@@ -172,6 +174,29 @@ TEST_F(NodeTest, NewCalibrationFileReanchorsWhileRunning) {
       coloc::fusion::testing::run(oscsend(node.port(), "/coloc/session/reload", "s", {"vive"})), 0);
   ASSERT_TRUE(wait_for([&] { return node.reloads().size() >= 2; }));
   EXPECT_EQ(node.snapshot("vive").calibration_version, 1u);
+}
+
+// Hot reload takes only a rigid calibration: a scaled rotation (which moved a participant by
+// 35 cm) is a failed reload naming the key, and the participant keeps its calibration.
+TEST_F(NodeTest, NonRigidCalibrationIsNotTakenByHotReload) {
+  SessionNode node(
+      Session(testing::two_user_config(dir, SE3(), vive_from_camera, quest_from_camera)),
+      SessionNodeOptions{});
+  node.start();
+  {
+    std::ofstream out(dir / "b.tmp");
+    out << "device_from_marker: [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]\n"
+           "vr_from_camera: [1.3,0,0,1, 0,1.3,0,0, 0,0,1.3,0, 0,0,0,1]\n";
+  }
+  std::filesystem::rename(dir / "b.tmp", dir / "b.yaml");  // as `--output` writes it
+  ASSERT_TRUE(wait_for([&] { return !node.reloads().empty(); }));
+  const ReloadReport r = node.reloads().front();
+  EXPECT_EQ(r.id, "quest");
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.error.find("vr_from_camera"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find("not orthonormal"), std::string::npos) << r.error;
+  EXPECT_EQ(node.snapshot("quest").calibration_version, 0u);
+  EXPECT_NEAR(node.snapshot("quest").world_from_vr.translation().x(), -1.0, 1e-12);
 }
 
 }  // namespace
