@@ -65,6 +65,7 @@ Json stats_json(const fs::SessionNodeStats& s) {
           {"published", c.published},
           {"sent", s.sent},
           {"replies", s.replies},
+          {"non_finite", s.non_finite},
           {"stale_events", c.stale_events},
           {"reloads", c.reloads},
           {"reload_failures", c.reload_failures},

@@ -98,6 +98,36 @@ TEST(OscCodec, PoseMessageRoundTrip) {
   EXPECT_EQ(encode_pose(kPoseAddress, p).size(), 68u);
 }
 
+// No non-finite number goes on the wire: a NaN pose is sent as lost (state 0, identity), with
+// its sequence, and the endpoint counts it.
+TEST(OscCodec, NonFinitePosesGoOutAsLostAndAreCounted) {
+  for (int field = 0; field < 3; ++field) {
+    PoseMessage p = sample_pose();
+    (field == 0   ? p.position.y()
+     : field == 1 ? p.orientation.x()
+                  : p.time) = std::numeric_limits<double>::quiet_NaN();
+    EXPECT_FALSE(finite_message(p));
+    const auto bytes = encode_pose(kPoseAddress, p);
+    const OscDecodeResult r = decode_packet(bytes.data(), bytes.size());
+    ASSERT_EQ(r.error, OscError::kNone) << r.detail;  // finite, so the decoder takes it
+    ASSERT_EQ(r.messages.size(), 1u);
+    EXPECT_EQ(r.messages[0].pose.state, 0);
+    EXPECT_EQ(r.messages[0].pose.sequence, p.sequence);
+    EXPECT_EQ(r.messages[0].pose.position, Eigen::Vector3d::Zero());
+  }
+  OscEndpoint receiver;
+  OscEndpoint sender;
+  sender.add_target("osc.udp://127.0.0.1:" + std::to_string(receiver.port()));
+  PoseMessage p = sample_pose();
+  p.position.x() = std::numeric_limits<double>::infinity();
+  ASSERT_EQ(sender.publish(kPoseAddress, p), 1u);
+  EXPECT_EQ(sender.stats().non_finite, 1u);
+  const auto got = receiver.receive(kArrivalMs);
+  ASSERT_TRUE(got.has_value());
+  EXPECT_EQ(got->messages.at(0).pose.state, 0);
+  EXPECT_TRUE(got->messages.at(0).pose.position.allFinite());
+}
+
 TEST(OscCodec, GetPoseWithAndWithoutReplyPort) {
   auto bytes = encode_get_pose();
   OscDecodeResult r = decode_packet(bytes.data(), bytes.size());
