@@ -10,6 +10,7 @@
 #include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/input_file.hpp"
+#include "slam/core/yaml_text.hpp"
 
 namespace coloc::markers {
 namespace {
@@ -169,10 +170,11 @@ void write_marker_map(const std::filesystem::path& path, const MarkerMap& map) {
 }
 
 MarkerMap read_marker_map(const std::filesystem::path& path) {
-  check_input_file(path, "marker map");
+  // Through the YAML guard (OpenCV's reader can loop forever on some malformed input).
+  const std::string text = read_yaml_text(path, "marker map");
   cv::FileStorage fs;
   try {
-    fs.open(path.string(), cv::FileStorage::READ);
+    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
   } catch (const cv::Exception& e) {
     throw Error(std::string("cannot parse marker map: ") + e.what(), {.file = path.string()});
   }

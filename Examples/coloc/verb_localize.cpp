@@ -30,6 +30,7 @@
 #include "slam/core/progress.hpp"
 #include "slam/core/rigid.hpp"
 #include "slam/core/timing.hpp"
+#include "slam/core/yaml_text.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/eval/trajectory_error.hpp"
 #include "slam/localize/frame_pacer.hpp"
@@ -71,10 +72,11 @@ struct LocalizeArgs {
 // cam_from_head (4x4, OpenCV YAML key `cam_from_head`, or `cam_from_headset` as the twin's
 // headset/calibration.yaml has it): the camera's mounting on the headset.
 SE3 read_cam_from_head(const fs::path& path) {
-  check_input_file(path, "cam-from-head file");
+  // Through the YAML guard (OpenCV's reader can loop forever on some malformed input).
+  const std::string text = read_yaml_text(path, "cam-from-head file");
   cv::FileStorage file;
   try {
-    file.open(path.string(), cv::FileStorage::READ);
+    file.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
   } catch (const cv::Exception& e) {
     throw Error("not a readable YAML file (" + e.err + ")", {.file = path.string()});
   }

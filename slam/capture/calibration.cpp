@@ -9,6 +9,7 @@
 #include "slam/capture/bytes.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/rigid.hpp"
+#include "slam/core/yaml_text.hpp"
 
 namespace coloc::capture {
 namespace {
@@ -286,9 +287,11 @@ DepthColorCalibration nominal_d455_calibration() {
 
 DepthColorCalibration load_calibration_file(const std::filesystem::path& path, int depth_width,
                                             int depth_height) {
+  // Through the YAML guard: OpenCV's reader can loop forever, a FIFO never ends.
+  const std::string text = read_yaml_text(path, "camera file");
   cv::FileStorage fs;
   try {
-    fs.open(path.string(), cv::FileStorage::READ);
+    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
   } catch (const cv::Exception& e) {
     throw Error("cannot parse camera file: " + e.msg, {.file = path.string()});
   }

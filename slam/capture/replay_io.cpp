@@ -3,6 +3,8 @@
 #include <opencv2/core.hpp>
 
 #include "slam/capture/replay.hpp"
+#include "slam/core/input_file.hpp"
+#include "slam/core/yaml_text.hpp"
 
 namespace coloc::capture {
 namespace fs = std::filesystem;
@@ -16,6 +18,7 @@ void write_bytes(const fs::path& path, std::span<const std::uint8_t> bytes) {
 }
 
 std::vector<std::uint8_t> read_bytes(const fs::path& path) {
+  check_input_file(path, "replay frame");  // a FIFO or a device never ends
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error("cannot read replay frame", {.file = path.string()});
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
@@ -143,8 +146,11 @@ void save_replay(const ReplayDescription& d, const fs::path& dir) {
 ReplayDescription load_replay(const fs::path& dir) {
   const fs::path file = dir / "replay.yaml";
   ReplayDescription d;
+  // Through the YAML guard (OpenCV's reader can loop forever); a replay lists every frame.
+  const std::string text =
+      read_yaml_text(file, "replay description", {.max_bytes = std::size_t{256} << 20});
   try {
-    cv::FileStorage fs(file.string(), cv::FileStorage::READ);
+    cv::FileStorage fs(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
     if (!fs.isOpened()) throw Error("cannot open replay description", {.file = file.string()});
     d.realtime = static_cast<int>(fs["realtime"]) != 0;
     for (const auto& n : fs["nodes"])

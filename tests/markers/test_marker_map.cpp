@@ -141,5 +141,18 @@ TEST(MarkerMap, NonFiniteCornersAreAnErrorNamingTheMarker) {
   }
 }
 
+// The input OpenCV 4.6's YAML reader loops forever on is refused at once (the YAML guard of
+// slam/core), the line named.
+TEST(MarkerMap, YamlThatHangsOpenCvIsRefused) {
+  const auto p = coloc::testing::temp_dir("markers_map_loop") / "loop.yaml";
+  std::ofstream(p) << "%YAML:1.0\n---\nformat: coloc-marker-map\n----x\n";
+  try {
+    read_marker_map(p);
+    FAIL() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().line, 4);
+  }
+}
+
 }  // namespace
 }  // namespace coloc::markers
