@@ -10,6 +10,7 @@
 
 #include "slam/core/error.hpp"
 #include "slam/core/rigid.hpp"
+#include "slam/core/yaml_text.hpp"
 
 namespace coloc::fusion::session {
 namespace {
@@ -239,11 +240,9 @@ SessionConfig parse_session_config(const std::string& text, const std::filesyste
 }
 
 SessionConfig read_session_config(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw Error("cannot open the session file", ErrorContext{.file = path.string()});
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse_session_config(text.str(), path);
+  // The one YAML loader: a FIFO (which hung `session check`), a directory or a huge file is an
+  // error saying what the path is.
+  return parse_session_config(read_yaml_text(path, "session file"), path);
 }
 
 }  // namespace coloc::fusion::session

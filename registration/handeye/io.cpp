@@ -187,7 +187,7 @@ void write_calibration(const std::filesystem::path& path, const CalibrationFile&
 }
 
 CalibrationFile read_calibration(const std::filesystem::path& path) {
-  check_input_file(path, "pose file");
+  check_input_file(path, "calibration file");
   std::ifstream in(path);
   if (!in) throw Error("cannot open file", {.file = path.string()});
   Reader reader{path, 0};

@@ -2,6 +2,7 @@
 // a live save while another thread edits the map, and the exports that read without loading.
 #include <gtest/gtest.h>
 #include <sqlite3.h>
+#include <sys/stat.h>
 
 #include <atomic>
 #include <thread>
@@ -358,6 +359,18 @@ TEST(MapDb, LiveSaveIsConsistentWhileAnotherThreadEditsTheMap) {
   EXPECT_GT(loop_edge_rows(m), 0u);
   save_live_map(m, mutex, test::test_metadata(), path, options);
   EXPECT_EQ(map_difference(m, load_map(path, test_support::vocabulary()).map), "");
+}
+
+// A FIFO map file is refused saying it is a FIFO (it said "no such map file").
+TEST(MapDb, FifoMapFileIsNamedForWhatItIs) {
+  const auto path = testing::temp_dir("mapdb_fifo") / "map.db";
+  ASSERT_EQ(::mkfifo(path.c_str(), 0600), 0);
+  try {
+    load_map(path, test_support::vocabulary());
+    FAIL() << "a FIFO was opened";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("map file is a FIFO"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
