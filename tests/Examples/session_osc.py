@@ -2,7 +2,8 @@
 """`coloc session` end to end over real UDP on loopback, with two calibrations solved by
 `coloc handeye simulate|solve --output` and liblo's own tools as the XR systems and renderer:
   - `coloc session check` validates the description;
-  - a locked pair of controllers (vive:0, quest:0) is streamed with oscsend; oscdump receives
+  - a locked pair of controllers (vive:0, quest:0) is streamed, each instant's two poses in one
+    OSC bundle (garbage and an unknown participant come from oscsend); oscdump receives
     /coloc/users/<id>/controller/0 in the world frame, equal to the hand computation through
     each calibration;
   - garbage and an unknown participant are counted (--json), the session keeps going;
@@ -20,6 +21,7 @@ import subprocess
 import sys
 import tempfile
 import threading
+import struct
 import time
 
 import numpy as np
@@ -45,6 +47,28 @@ def wait_until(condition, timeout=ARRIVAL_S):
             return False
         time.sleep(0.02)
     return True
+
+
+def osc_string(text):
+    data = text.encode() + b"\0"
+    return data + b"\0" * (-len(data) % 4)
+
+
+def osc_message(address, types, *args):
+    """An OSC 1.0 message (types d, i, f, s), as oscsend writes it."""
+    body = b""
+    for t, a in zip(types, args):
+        body += {"d": lambda v: struct.pack(">d", v), "i": lambda v: struct.pack(">i", v),
+                 "f": lambda v: struct.pack(">f", v), "s": osc_string}[t](a)
+    return osc_string(address) + osc_string("," + types) + body
+
+
+def osc_bundle(*messages):
+    """A bundle to be handled at once (timetag 1): its messages arrive in one datagram."""
+    out = osc_string("#bundle") + struct.pack(">II", 0, 1)
+    for m in messages:
+        out += struct.pack(">i", len(m)) + m
+    return out
 
 
 def read_matrix(path, key):
@@ -119,6 +143,7 @@ def main():
     vive_vr_cam = read_matrix(os.path.join(tmp, "vive.yaml"), "vr_from_camera")
     quest_vr_cam = read_matrix(os.path.join(tmp, "quest.yaml"), "vr_from_camera")
     quest_from_vive = quest_vr_cam @ np.linalg.inv(vive_vr_cam)
+    udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     for i in range(30):
         a = np.eye(4)
         a[:3, 3] = [0.5, 0.2, 1.0]
@@ -127,10 +152,15 @@ def main():
         qw = np.sqrt(max(0.0, 1 + np.trace(b[:3, :3]))) / 2
         q = [(b[2, 1] - b[1, 2]) / (4 * qw), (b[0, 2] - b[2, 0]) / (4 * qw),
              (b[1, 0] - b[0, 1]) / (4 * qw), qw]
-        send("/coloc/xr_controller", "diifffffffis", 1.0 + 0.01 * i, i, 1, *a[:3, 3], 0, 0, 0, 1,
-             0, "vive")
-        send("/coloc/xr_controller", "diifffffffis", 7.0 + 0.01 * i, i, 1, *b[:3, 3], *q, 0,
-             "quest")
+        # Both systems' poses of one instant in one datagram (one bundle): `session stability`
+        # pairs them by arrival time, which two oscsend processes would space by their start-up
+        # time (tens of ms on a busy machine), not by anything the test controls.
+        pair = osc_bundle(
+            osc_message("/coloc/xr_controller", "diifffffffis", 1.0 + 0.01 * i, i, 1,
+                        *a[:3, 3], 0, 0, 0, 1, 0, "vive"),
+            osc_message("/coloc/xr_controller", "diifffffffis", 7.0 + 0.01 * i, i, 1,
+                        *b[:3, 3], *q, 0, "quest"))
+        udp.sendto(pair, ("127.0.0.1", listen))
     # Every message was handled once the last one of each system came out in the world frame.
     def published(user, t):
         address = "/coloc/users/%s/controller/0" % user
