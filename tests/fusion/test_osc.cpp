@@ -175,9 +175,13 @@ TEST(OscCodec, MalformedPacketsAreErrorsNotCrashes) {
   auto unknown = encode_pose("/coloc/unknown", p);
   EXPECT_EQ(decode(unknown), OscError::kUnknownAddress);
 
-  p.position.x() = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_EQ(decode(encode_pose(kPoseAddress, p)), OscError::kInvalidValue);
-  p = sample_pose();
+  // A NaN from another sender (encode_pose itself never sends one): x's float, after the
+  // address (12 bytes), the type tags (12) and time, sequence and state (16), made a NaN.
+  std::vector<std::uint8_t> nan_x = encode_pose(kPoseAddress, p);
+  ASSERT_GE(nan_x.size(), 44u);
+  const std::uint8_t quiet_nan[4] = {0x7f, 0xc0, 0x00, 0x00};  // big-endian float32
+  std::copy(std::begin(quiet_nan), std::end(quiet_nan), nan_x.begin() + 40);
+  EXPECT_EQ(decode(nan_x), OscError::kInvalidValue);
   p.orientation.coeffs() *= 2.0;  // not a unit quaternion
   EXPECT_EQ(decode(encode_pose(kPoseAddress, p)), OscError::kInvalidValue);
 
