@@ -8,6 +8,7 @@
 #include "slam/capture/discovery.hpp"
 #include "slam/capture/replay.hpp"
 #include "slam/capture/replay_build.hpp"
+#include "slam/core/yaml_text.hpp"
 #include "tests/slam/capture/test_support.hpp"
 #include "tests/testing/data.hpp"
 
@@ -179,11 +180,7 @@ TEST(CaptureReplay, BadDescriptionsNameTheField) {
   const fs::path dir = coloc::testing::temp_dir("capture_replay_bad");
   save_replay(replay_from_sequence(seq, testing::test_camera(), {}), dir);
   const fs::path file = dir / "replay.yaml";
-  std::string text;
-  {
-    std::ifstream in(file);
-    text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
+  const std::string text = read_yaml_text(file, "replay description");
   const std::size_t at = text.find("timestamp_ns");
   ASSERT_NE(at, std::string::npos);
   const std::size_t colon = text.find(':', at), end = text.find_first_of(",}\n", colon);

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <thread>
 
+#include "slam/core/error.hpp"
 #include "slam/mapdb/metadata.hpp"
 #include "slam/mapdb/schema.hpp"
 #include "slam/synthetic/synthetic_scene.hpp"
