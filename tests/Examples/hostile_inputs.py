@@ -143,7 +143,7 @@ def main():
                      ["{tmp}/c.yaml"])
                 tmp = fresh()
                 case(coloc, tmp, "eval (trajectory)", kind,
-                     ["eval", os.path.join(tum, "groundtruth.txt"), "{hostile}"],
+                     ["eval", "ate", os.path.join(tum, "groundtruth.txt"), "{hostile}"],
                      os.path.join(tmp, "t.txt"), [])
     print("hostile inputs:", "all refused" if not FAILURES else "%d FAILED" % len(FAILURES))
     return 1 if FAILURES else 0
