@@ -57,8 +57,10 @@ SampleStats time_osc_round_trip(int round_trips) {
   for (int i = 0; i < round_trips + 50; ++i) {
     Stopwatch watch;
     client.send_to(to, request);
-    if (!client.receive(1000)) {
-      throw Error("no /coloc/pose reply within 1 s on loopback port " +
+    // Only a lost reply ends the run: a busy machine may hold a loopback reply for seconds,
+    // which the timings show.
+    if (!client.receive(30000)) {
+      throw Error("no /coloc/pose reply within 30 s on loopback port " +
                   std::to_string(server.port()));
     }
     if (i >= 50) micros.push_back(1e6 * watch.elapsed_seconds());  // after 50 warm-up trips

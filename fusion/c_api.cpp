@@ -12,6 +12,7 @@
 
 #include "fusion/osc_node.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/rigid.hpp"
 
 struct coloc_fusion {
   std::unique_ptr<coloc::fusion::FusionNode> node;
@@ -50,7 +51,15 @@ bool read_pose(const coloc_pose* in, double& time, coloc::SE3& pose) {
   return true;
 }
 
-void write_pose(const FusedPose& f, coloc_pose* out, int* state) {
+void write_pose(const FusedPose& given, coloc_pose* out, int* state) {
+  // No non-finite number leaves the ABI: such a pose goes out as the identity in state 0, as
+  // the OSC encoder sends it (fusion/osc.hpp lost_message).
+  FusedPose f = given;
+  if (!std::isfinite(f.time) || !coloc::finite_pose(f.world_from_head)) {
+    f.time = std::isfinite(f.time) ? f.time : 0.0;
+    f.world_from_head = coloc::SE3();
+    f.state = static_cast<decltype(f.state)>(0);
+  }
   if (out != nullptr) {
     out->time = f.time;
     const Eigen::Vector3d& p = f.world_from_head.translation();

@@ -84,8 +84,23 @@ const char* to_string(OscError error) {
   return "unknown";
 }
 
-std::vector<std::uint8_t> encode_pose(std::string_view address, const PoseMessage& pose,
+bool finite_message(const PoseMessage& pose) {
+  return std::isfinite(pose.time) && pose.position.allFinite() &&
+         pose.orientation.coeffs().allFinite();
+}
+
+PoseMessage lost_message(const PoseMessage& pose) {
+  PoseMessage lost;
+  lost.time = std::isfinite(pose.time) ? pose.time : 0.0;
+  lost.sequence = pose.sequence;
+  lost.state = 0;
+  return lost;
+}
+
+std::vector<std::uint8_t> encode_pose(std::string_view address, const PoseMessage& checked,
                                       bool as_bundle) {
+  // The one encoder of every sender: nothing non-finite leaves it, whoever calls.
+  const PoseMessage pose = finite_message(checked) ? checked : lost_message(checked);
   LoMessagePtr m(lo_message_new());
   const Eigen::Quaterniond& q = pose.orientation;
   lo_message_add_double(m.get(), pose.time);

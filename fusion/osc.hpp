@@ -75,8 +75,16 @@ struct OscDecodeResult {
   std::vector<OscMessage> messages;
 };
 
+// True when every number of `pose` is finite: only such a pose may go on the wire.
+bool finite_message(const PoseMessage& pose);
+// What is sent in place of a pose with a non-finite number: its sequence, its time (0 when not
+// finite), state 0 (lost) and the identity pose. A receiver then sees a lost tracker, never a
+// NaN it would put into a scene.
+PoseMessage lost_message(const PoseMessage& pose);
+
 // Serializes one pose message (plain message, or a bundle whose timetag is `time` taken as Unix
-// seconds when as_bundle is true).
+// seconds when as_bundle is true). A pose with a non-finite number is sent as lost_message();
+// the senders count it (OscStats::non_finite, SessionNodeStats::non_finite).
 std::vector<std::uint8_t> encode_pose(std::string_view address, const PoseMessage& pose,
                                       bool as_bundle = false);
 // Serializes a /coloc/get_pose request (reply_port 0 = no argument).

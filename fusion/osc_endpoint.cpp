@@ -142,6 +142,7 @@ bool OscEndpoint::send_to(const OscPeer& peer, const std::vector<std::uint8_t>& 
 std::size_t OscEndpoint::publish(std::string_view address, const PoseMessage& pose,
                                  bool as_bundle) {
   if (targets_.empty()) return 0;
+  if (!finite_message(pose)) ++non_finite_;
   const std::vector<std::uint8_t> bytes = encode_pose(address, pose, as_bundle);
   std::size_t ok = 0;
   for (const OscPeer& peer : targets_)
@@ -219,6 +220,7 @@ OscStats OscEndpoint::stats() const {
   s.invalid_values = invalid_values_;
   s.sent = sent_;
   s.send_errors = send_errors_;
+  s.non_finite = non_finite_;
   const std::lock_guard lock(error_mutex_);
   s.last_error = last_error_;
   return s;

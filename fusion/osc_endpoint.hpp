@@ -54,7 +54,8 @@ struct OscStats {
   std::uint64_t invalid_values = 0;
   std::uint64_t sent = 0;  // datagrams sent
   std::uint64_t send_errors = 0;
-  std::string last_error;  // reason of the last dropped packet, for logs
+  std::uint64_t non_finite = 0;  // poses with a NaN / inf published as lost (state 0)
+  std::string last_error;        // reason of the last dropped packet, for logs
 };
 
 struct OscPacket {
@@ -100,7 +101,8 @@ class OscEndpoint {
   std::vector<std::uint8_t> buffer_;
 
   std::atomic<std::uint64_t> packets_{0}, messages_{0}, oversized_{0}, malformed_{0},
-      unknown_address_{0}, wrong_types_{0}, invalid_values_{0}, sent_{0}, send_errors_{0};
+      unknown_address_{0}, wrong_types_{0}, invalid_values_{0}, sent_{0}, send_errors_{0},
+      non_finite_{0};
   mutable std::mutex error_mutex_;  // guards last_error_ only (written by the receiving thread)
   std::string last_error_;
 };

@@ -12,6 +12,7 @@
 #include "markers/edge_refine.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/input_file.hpp"
+#include "slam/core/yaml_text.hpp"
 
 namespace coloc::markers {
 namespace {
@@ -127,11 +128,12 @@ void DetectorOptions::check() const {
 
 void read_detector_parameters(const std::filesystem::path& path,
                               cv::aruco::DetectorParameters& parameters) {
-  check_input_file(path, "detector parameters file");
+  // Through the YAML guard (OpenCV's reader can loop forever on some malformed input).
+  const std::string text = read_yaml_text(path, "detector parameters file");
   const ErrorContext ctx{.file = path.string()};
   cv::FileStorage fs;
   try {
-    fs.open(path.string(), cv::FileStorage::READ);
+    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
   } catch (const cv::Exception& e) {
     throw Error(std::string("cannot parse detector parameters: ") + e.what(), ctx);
   }

@@ -9,6 +9,7 @@
 
 #include "slam/core/error.hpp"
 #include "slam/core/input_file.hpp"
+#include "slam/core/yaml_text.hpp"
 
 namespace coloc::markers {
 namespace {
@@ -52,10 +53,11 @@ bool looks_like_file(const std::string& s) {
 
 cv::Ptr<cv::aruco::Dictionary> read_custom_dictionary(const std::string& path) {
   ErrorContext ctx{.file = path};
-  check_input_file(path, "dictionary file");
+  // Through the YAML guard (OpenCV's reader can loop forever on some malformed input).
+  const std::string text = read_yaml_text(path, "dictionary file");
   cv::FileStorage fs;
   try {
-    fs.open(path, cv::FileStorage::READ);
+    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
   } catch (const cv::Exception& e) {
     throw Error(std::string("cannot parse dictionary file: ") + e.what(), ctx);
   }

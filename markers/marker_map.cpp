@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
 #include <initializer_list>
 #include <opencv2/core.hpp>
 #include <string_view>
@@ -9,6 +10,7 @@
 #include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/input_file.hpp"
+#include "slam/core/yaml_text.hpp"
 
 namespace coloc::markers {
 namespace {
@@ -89,7 +91,13 @@ class Reader {
       fail("must be a list of 12 numbers (4 corners x y z)", cf);
     }
     for (int i = 0; i < 12; ++i) {
-      m.corners[i / 3][i % 3] = number(corners[i], cf + "[" + std::to_string(i) + "]", true);
+      const std::string field = cf + "[" + std::to_string(i) + "]";
+      m.corners[i / 3][i % 3] = number(corners[i], field, true);
+      // A NaN or infinite corner is a broken file, not an outlier for registration to drop.
+      if (!std::isfinite(m.corners[i / 3][i % 3]))
+        fail("marker " + std::to_string(m.id) + ": corner " + std::to_string(i / 3) +
+                 " has a non-finite coordinate",
+             field);
     }
     m.sightings = integer(node["sightings"], where + ".sightings", false);
     m.rejected_sightings =
@@ -97,6 +105,8 @@ class Reader {
     m.ambiguous_sightings =
         integer(node["ambiguous_sightings"], where + ".ambiguous_sightings", false);
     m.residual = number(node["residual"], where + ".residual", false);
+    if (!std::isfinite(m.residual))
+      fail("marker " + std::to_string(m.id) + ": non-finite residual", where + ".residual");
     m.images = strings(node["images"], where + ".images");
     return m;
   }
@@ -160,10 +170,11 @@ void write_marker_map(const std::filesystem::path& path, const MarkerMap& map) {
 }
 
 MarkerMap read_marker_map(const std::filesystem::path& path) {
-  check_input_file(path, "marker map");
+  // Through the YAML guard (OpenCV's reader can loop forever on some malformed input).
+  const std::string text = read_yaml_text(path, "marker map");
   cv::FileStorage fs;
   try {
-    fs.open(path.string(), cv::FileStorage::READ);
+    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
   } catch (const cv::Exception& e) {
     throw Error(std::string("cannot parse marker map: ") + e.what(), {.file = path.string()});
   }

@@ -14,7 +14,7 @@ packages=(
   liblo-dev liblo-tools
   libyaml-cpp-dev
   libspdlog-dev libcli11-dev libpugixml-dev nlohmann-json3-dev
-  libgtest-dev libgmock-dev libbenchmark-dev
+  libgtest-dev libgmock-dev libbenchmark-dev stress-ng
   python3 python3-numpy python3-matplotlib
   libcpp-httplib-dev
   nodejs chromium chromium-driver

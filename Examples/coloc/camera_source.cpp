@@ -43,11 +43,23 @@ SignalStop::SignalStop(capture::RgbdCamera& camera) {
     const sigset_t set = stop_signals();
     const timespec tick{0, 100000000};
     while (!done_) {
-      if (sigtimedwait(&set, nullptr, &tick) > 0) {
+      const int signal = sigtimedwait(&set, nullptr, &tick);
+      if (signal <= 0) continue;
+      if (!interrupted_) {
         interrupted_ = true;
-        camera.stop();
-        return;
+        camera.stop();  // the verb ends cleanly, everything written
+        continue;
       }
+      // A second one: the verb did not end (a stuck write, a busy step). The user asked twice:
+      // the default action ends the process.
+      struct sigaction default_action {};
+      default_action.sa_handler = SIG_DFL;
+      sigaction(signal, &default_action, nullptr);
+      sigset_t one;
+      sigemptyset(&one);
+      sigaddset(&one, signal);
+      pthread_sigmask(SIG_UNBLOCK, &one, nullptr);
+      ::raise(signal);
     }
   });
 }

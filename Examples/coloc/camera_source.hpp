@@ -27,8 +27,9 @@ struct CameraSource {
 
 CameraSource open_camera_source(const std::string& spec);
 
-// Waits for SIGINT/SIGTERM (blocked by block_stop_signals) and stops the camera; ends when
-// destroyed. Signals are taken by sigtimedwait: no handler, no global state.
+// Waits for SIGINT/SIGTERM (blocked by block_stop_signals) and stops the camera; a second
+// signal, when the verb did not end (busy or stuck), ends the process by the signal's default
+// action. Ends when destroyed. Signals are taken by sigtimedwait: no handler, no global state.
 class SignalStop {
  public:
   explicit SignalStop(capture::RgbdCamera& camera);

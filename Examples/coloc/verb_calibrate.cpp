@@ -93,7 +93,8 @@ void add_calibrate_verb(CLI::App& app) {
   auto a = std::make_shared<CalibrateArgs>();
   CLI::App* cmd = app.add_subcommand(
       "calibrate", "Camera intrinsics from chessboard / ChArUco photos (ORB-SLAM3 settings out)");
-  cmd->add_option("images", a->images, "Photos of the board")->required()->check(CLI::ExistingFile);
+  // No CLI::ExistingFile: the calibrator checks each path (check_input_file), exit 1 naming it.
+  cmd->add_option("images", a->images, "Photos of the board")->required();
   cmd->add_option("--chessboard", a->chessboard, "Inner corners COLSxROWS, e.g. 9x6");
   cmd->add_option("--charuco", a->charuco, "Squares COLSxROWS, e.g. 5x7");
   cmd->add_option("--square", a->square, "Square side in metres")->required();

@@ -148,8 +148,9 @@ void add_capture_verb(CLI::App& app, CLI::App& bench) {
   make->add_option("--frames", mr->frames, "Only the first N frames");
   make->add_option("--unplug-after", mr->unplug_after, "The camera disappears after N frames");
   make->add_flag("--unpaced", mr->unpaced,
-                 "Serve frames as fast as they are taken (default: at their timestamps' pace, as "
-                 "a camera does; unpaced, a slow reader sees queue drops)");
+                 "Serve frames when the reader takes them, losing none however slow it is "
+                 "(default: at their timestamps' pace, as a camera does, dropping what a slow "
+                 "reader cannot take)");
   make->callback([mr] { run_make_replay(*mr); });
   devices->callback([devices, make, camera, json] {
     if (devices->got_subcommand(make)) return;

@@ -24,12 +24,10 @@ struct EvalArgs {
 
 void add_common(CLI::App& cmd, EvalArgs& a, const std::string& default_align) {
   a.align = default_align;
-  cmd.add_option("GT", a.ground_truth, "Ground-truth trajectory (TUM format)")
-      ->required()
-      ->check(CLI::ExistingFile);
-  cmd.add_option("EST", a.estimate, "Estimated trajectory (TUM format)")
-      ->required()
-      ->check(CLI::ExistingFile);
+  // No CLI::ExistingFile: the trajectory reader checks each path (a FIFO, a directory) and
+  // fails with exit 1 naming it.
+  cmd.add_option("GT", a.ground_truth, "Ground-truth trajectory (TUM format)")->required();
+  cmd.add_option("EST", a.estimate, "Estimated trajectory (TUM format)")->required();
   cmd.add_option("--align", a.align, "Alignment of EST to GT before comparing")
       ->check(CLI::IsMember({"se3", "sim3", "none"}))
       ->capture_default_str();

@@ -28,7 +28,9 @@
 #include "slam/core/error.hpp"
 #include "slam/core/input_file.hpp"
 #include "slam/core/progress.hpp"
+#include "slam/core/rigid.hpp"
 #include "slam/core/timing.hpp"
+#include "slam/core/yaml_text.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/eval/trajectory_error.hpp"
 #include "slam/localize/frame_pacer.hpp"
@@ -70,10 +72,11 @@ struct LocalizeArgs {
 // cam_from_head (4x4, OpenCV YAML key `cam_from_head`, or `cam_from_headset` as the twin's
 // headset/calibration.yaml has it): the camera's mounting on the headset.
 SE3 read_cam_from_head(const fs::path& path) {
-  check_input_file(path, "cam-from-head file");
+  // Through the YAML guard (OpenCV's reader can loop forever on some malformed input).
+  const std::string text = read_yaml_text(path, "cam-from-head file");
   cv::FileStorage file;
   try {
-    file.open(path.string(), cv::FileStorage::READ);
+    file.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
   } catch (const cv::Exception& e) {
     throw Error("not a readable YAML file (" + e.err + ")", {.file = path.string()});
   }
@@ -89,11 +92,9 @@ SE3 read_cam_from_head(const fs::path& path) {
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c)
       t(r, c) = m.at<double>(r, c);
-  const Eigen::Matrix3d rotation = t.topLeftCorner<3, 3>();
-  if ((rotation.transpose() * rotation - Eigen::Matrix3d::Identity()).norm() > 1e-4 ||
-      rotation.determinant() < 0.0)
-    throw Error("the rotation part is not a rotation", {.file = path.string(), .field = key});
-  return SE3(SO3(Eigen::Quaterniond(rotation).normalized()), t.topRightCorner<3, 1>());
+  // NaN, a scaled or sheared rotation or a bad last row would put NaN or a wrong pose on the
+  // wire: the one rigid check of slam/core refuses them, naming the file and key.
+  return rigid_from_matrix(t, {.file = path.string(), .field = key});
 }
 
 // What the localizer runs on: the map, the settings and the sequence read with them.

@@ -148,9 +148,10 @@ void add_record_verb(CLI::App& app) {
   cmd->add_option("--seconds", a->seconds, "Stop after this long (default: Ctrl-C)");
   cmd->add_option("--mode", a->mode,
                   "depth=WxH@FPS,color=WxH@FPS (default depth=848x480@30,color=640x480@30)");
+  // No CLI::ExistingFile: the calibration reader checks the path (a FIFO, a directory) and
+  // fails with exit 1 naming it.
   cmd->add_option("--calibration", a->calibration,
-                  "Camera YAML instead of the factory calibration (e.g. from coloc calibrate)")
-      ->check(CLI::ExistingFile);
+                  "Camera YAML instead of the factory calibration (e.g. from coloc calibrate)");
   cmd->add_option("--workers", a->workers, "PNG encoding threads")->check(CLI::Range(1, 16));
   cmd->add_flag("--no-imu", a->no_imu, "Do not record the IMU (iio accel_3d / gyro_3d)");
   cmd->add_flag("--json", a->json, "Machine-readable summary (no status line)");

@@ -24,6 +24,7 @@
 #include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/input_file.hpp"
+#include "slam/core/rigid.hpp"
 #include "slam/core/row_progress.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/mapdb/mapdb.hpp"
@@ -209,12 +210,7 @@ SE3 read_initial(const fs::path& path) {
       if (!(in >> m(r, c)) || !std::isfinite(m(r, c)))
         throw Error("expected a 4x4 matrix of finite numbers (scan_from_map)",
                     {.file = path.string(), .field = "row " + std::to_string(r + 1)});
-  const Eigen::Matrix3d rotation = m.topLeftCorner<3, 3>();
-  if ((rotation * rotation.transpose() - Eigen::Matrix3d::Identity()).norm() > 1e-3 ||
-      rotation.determinant() < 0.0 || (m.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-9)
-    throw Error("not a rigid transform (orthonormal rotation, last row 0 0 0 1)",
-                {.file = path.string()});
-  return SE3(SO3(Eigen::Quaterniond(rotation)), m.topRightCorner<3, 1>());
+  return rigid_from_matrix(m, {.file = path.string(), .field = "--initial"});
 }
 
 // Without --markers: the map's dense cloud (its keyframes' depth from --sequence) registered to

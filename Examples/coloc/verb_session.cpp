@@ -65,6 +65,7 @@ Json stats_json(const fs::SessionNodeStats& s) {
           {"published", c.published},
           {"sent", s.sent},
           {"replies", s.replies},
+          {"non_finite", s.non_finite},
           {"stale_events", c.stale_events},
           {"reloads", c.reloads},
           {"reload_failures", c.reload_failures},
@@ -252,8 +253,7 @@ void add_session_verb(CLI::App& app, CLI::App& bench) {
   CLI::App& cmd = *app.add_subcommand(
       "session", "Several users of different XR systems in one scanned frame (OSC node)");
   cmd.require_subcommand(0, 1);
-  cmd.add_option("--config", a->config, "Session description (YAML, see README)")
-      ->check(CLI::ExistingFile);
+  cmd.add_option("--config", a->config, "Session description (YAML, see README)");
   cmd.add_option("--listen", a->listen, "Shared UDP port (0: any free one)")->capture_default_str();
   cmd.add_option("--bind", a->bind, "Address to bind (0.0.0.0: every interface)")
       ->capture_default_str();
@@ -271,14 +271,15 @@ void add_session_verb(CLI::App& app, CLI::App& bench) {
 
   auto check = std::make_shared<std::pair<std::string, bool>>();
   CLI::App& c = *cmd.add_subcommand("check", "Validate a session description, show placements");
-  c.add_option("CONFIG", check->first)->required()->check(CLI::ExistingFile);
+  // No CLI::ExistingFile: the readers check each path (a FIFO, a directory), exit 1 naming it.
+  c.add_option("CONFIG", check->first)->required();
   c.add_flag("--json", check->second);
   c.callback([check] { run_check(check->first, check->second); });
 
   auto st = std::make_shared<StabilityArgs>();
   CLI::App& s = *cmd.add_subcommand("stability", "Two locked controllers from a session log");
-  s.add_option("--config", st->config)->required()->check(CLI::ExistingFile);
-  s.add_option("--log", st->log)->required()->check(CLI::ExistingFile);
+  s.add_option("--config", st->config)->required();
+  s.add_option("--log", st->log)->required();
   s.add_option("--a", st->a, "Participant and controller, e.g. vive:0")->required();
   s.add_option("--b", st->b, "Participant and controller, e.g. quest:0")->required();
   s.add_option("--max-dt", st->max_dt, "Pairing window on the session clock, s")

@@ -9,6 +9,8 @@
 #include <sstream>
 
 #include "slam/core/error.hpp"
+#include "slam/core/rigid.hpp"
+#include "slam/core/yaml_text.hpp"
 
 namespace coloc::fusion::session {
 namespace {
@@ -63,20 +65,17 @@ SE3 pose(const YAML::Node& node, const Where& where) {
   if (!std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); })) {
     where.fail("non-finite number", node);
   }
-  if (v.size() == 7) {
-    const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
-    if (std::abs(q.norm() - 1.0) > 1e-3) where.fail("quaternion is not unit", node);
-    return SE3(q.normalized(), Eigen::Vector3d(v[0], v[1], v[2]));
+  // The one rigid check of slam/core; its message, with this key's place in the file.
+  try {
+    if (v.size() == 7)
+      return rigid_from_quaternion({v[0], v[1], v[2]}, {v[3], v[4], v[5], v[6]}, {});
+    Eigen::Matrix4d m;
+    for (int k = 0; k < 16; ++k)
+      m(k / 4, k % 4) = v[k];
+    return rigid_from_matrix(m, {});
+  } catch (const Error& e) {
+    where.fail(e.message(), node);
   }
-  Eigen::Matrix4d m;
-  for (int k = 0; k < 16; ++k)
-    m(k / 4, k % 4) = v[k];
-  const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
-  if ((r.transpose() * r - Eigen::Matrix3d::Identity()).norm() > 1e-3 || r.determinant() < 0.0 ||
-      (m.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-9) {
-    where.fail("not a rigid transform (rotation not orthonormal or last row not 0 0 0 1)", node);
-  }
-  return SE3::from_matrix(m);
 }
 
 AnchorConfig parse_anchor(const YAML::Node& node, const Where& where) {
@@ -241,11 +240,9 @@ SessionConfig parse_session_config(const std::string& text, const std::filesyste
 }
 
 SessionConfig read_session_config(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw Error("cannot open the session file", ErrorContext{.file = path.string()});
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse_session_config(text.str(), path);
+  // The one YAML loader: a FIFO (which hung `session check`), a directory or a huge file is an
+  // error saying what the path is.
+  return parse_session_config(read_yaml_text(path, "session file"), path);
 }
 
 }  // namespace coloc::fusion::session

@@ -7,6 +7,7 @@
 #include "registration/handeye/compose.hpp"
 #include "registration/handeye/io.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc::fusion::session {
 namespace {
@@ -64,6 +65,7 @@ void write_log_record(std::ostream& out, const LogRecord& r) {
 }
 
 std::vector<LogRecord> read_session_log(const std::filesystem::path& path) {
+  check_input_file(path, "session log");  // a FIFO would block, a directory reads as empty
   std::ifstream in(path);
   if (!in) throw Error("cannot open the session log", ErrorContext{.file = path.string()});
   std::vector<LogRecord> records;

@@ -247,8 +247,9 @@ void SessionNode::log(const std::string& participant, std::string device, const 
 
 void SessionNode::send_outputs(const std::vector<Output>& out) {
   if (out.empty() || targets_.empty()) return;
-  std::uint64_t sent = 0, errors = 0;
+  std::uint64_t sent = 0, errors = 0, non_finite = 0;
   for (const Output& o : out) {
+    non_finite += finite_message(o.pose) ? 0 : 1;
     const std::vector<std::uint8_t> bytes = encode_pose(o.address, o.pose);
     for (const OscPeer& peer : targets_) {
       const sockaddr_in a = to_sockaddr(peer.ip, peer.port);
@@ -260,12 +261,14 @@ void SessionNode::send_outputs(const std::vector<Output>& out) {
   const std::lock_guard lock(mutex_);
   stats_.sent += sent;
   stats_.send_errors += errors;
+  stats_.non_finite += non_finite;
 }
 
 // Under mutex_ (called from handle()).
 void SessionNode::reply(const OscPeer& to, const std::vector<Output>& out) {
   const sockaddr_in a = to_sockaddr(to.ip, to.port);
   for (const Output& o : out) {
+    stats_.non_finite += finite_message(o.pose) ? 0 : 1;
     const std::vector<std::uint8_t> bytes = encode_pose(o.address, o.pose);
     const ssize_t n = ::sendto(sockets_.front().fd, bytes.data(), bytes.size(), 0,
                                reinterpret_cast<const sockaddr*>(&a), sizeof(a));

@@ -41,7 +41,8 @@ struct SessionNodeStats {
   std::uint64_t untagged = 0;  // pose messages without a participant id on the shared port
   std::uint64_t sent = 0;      // datagrams sent (outputs x targets, replies)
   std::uint64_t send_errors = 0;
-  std::uint64_t replies = 0;  // /coloc/get_pose requests answered
+  std::uint64_t replies = 0;     // /coloc/get_pose requests answered
+  std::uint64_t non_finite = 0;  // outputs with a NaN / inf, sent as lost (state 0)
 };
 
 // One accepted input, as it arrived (for the session log: `coloc session --log`).

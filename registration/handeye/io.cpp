@@ -11,6 +11,7 @@
 #include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/input_file.hpp"
+#include "slam/core/rigid.hpp"
 #include "slam/core/trajectory.hpp"
 
 namespace coloc::registration::handeye {
@@ -186,7 +187,7 @@ void write_calibration(const std::filesystem::path& path, const CalibrationFile&
 }
 
 CalibrationFile read_calibration(const std::filesystem::path& path) {
-  check_input_file(path, "pose file");
+  check_input_file(path, "calibration file");
   std::ifstream in(path);
   if (!in) throw Error("cannot open file", {.file = path.string()});
   Reader reader{path, 0};
@@ -216,7 +217,7 @@ CalibrationFile read_calibration(const std::filesystem::path& path) {
     for (int k = 0; k < 16; ++k)
       m(k / 4, k % 4) = reader.number(fields[k], key);
     (key == "device_from_marker" ? out.device_from_marker : out.vr_from_camera) =
-        SE3::from_matrix(m);
+        rigid_from_matrix(m, {.file = path.string(), .field = key, .line = reader.line});
     (key == "device_from_marker" ? seen_x : seen_y) = true;
   }
   if (!seen_x || !seen_y) {

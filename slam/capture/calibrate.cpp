@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 
 namespace coloc::capture {
 namespace fs = std::filesystem;
@@ -113,6 +114,7 @@ CameraCalibration calibrate_camera(const std::vector<fs::path>& paths, const Cal
   std::vector<std::size_t> image_of;
   cv::Size size;
   for (const fs::path& p : paths) {
+    check_input_file(p, "calibration image");  // imread blocks forever on a FIFO
     const cv::Mat grey = cv::imread(p.string(), cv::IMREAD_GRAYSCALE);
     if (grey.empty()) throw Error("cannot read image", {.file = p.string()});
     if (size.area() > 0 && grey.size() != size)

@@ -8,6 +8,8 @@
 
 #include "slam/capture/bytes.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/rigid.hpp"
+#include "slam/core/yaml_text.hpp"
 
 namespace coloc::capture {
 namespace {
@@ -285,9 +287,11 @@ DepthColorCalibration nominal_d455_calibration() {
 
 DepthColorCalibration load_calibration_file(const std::filesystem::path& path, int depth_width,
                                             int depth_height) {
+  // Through the YAML guard: OpenCV's reader can loop forever, a FIFO never ends.
+  const std::string text = read_yaml_text(path, "camera file");
   cv::FileStorage fs;
   try {
-    fs.open(path.string(), cv::FileStorage::READ);
+    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
   } catch (const cv::Exception& e) {
     throw Error("cannot parse camera file: " + e.msg, {.file = path.string()});
   }
@@ -332,7 +336,8 @@ DepthColorCalibration load_calibration_file(const std::filesystem::path& path, i
     for (int r = 0; r < 4; ++r)
       for (int col = 0; col < 4; ++col)
         pose(r, col) = m.at<double>(r, col);
-    c.color_from_depth = SE3::from_matrix(pose);
+    c.color_from_depth =
+        rigid_from_matrix(pose, {.file = path.string(), .field = "color_from_depth"});
   }
   return c;
 }

@@ -159,7 +159,9 @@ double RgbdCamera::frame_time(StreamState& s, const RawFrame& f) {
   while (!meta) {
     std::optional<RawFrame> m = std::move(s.pending_meta);
     s.pending_meta.reset();
-    if (!m) m = s.meta->pop_for(kMetadataWaitMs);
+    // A camera's metadata is due at once, or lost: waiting longer would hold up the frames. A
+    // replay paced by its reader has every frame's metadata coming, however slow the machine.
+    if (!m) m = s.meta->paced_by_reader() ? s.meta->pop() : s.meta->pop_for(kMetadataWaitMs);
     if (!m || m->sequence > f.sequence) {
       s.pending_meta = std::move(m);
       break;

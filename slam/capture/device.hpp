@@ -83,6 +83,11 @@ class VideoNode {
   virtual std::optional<Buffer> dequeue(int timeout_ms) = 0;
   virtual void requeue(std::uint32_t index) = 0;
   virtual void stop() = 0;  // STREAMOFF, unmap; never throws
+  // True for a node without a clock of its own (a replay served on demand): it gives a frame
+  // when asked, so its stream waits for the consumer instead of dropping. Nothing is lost then,
+  // however slow the machine; a camera (false) runs at its own pace and drops what the consumer
+  // cannot take.
+  virtual bool paced_by_reader() const { return false; }
   // UVCIOC_CTRL_QUERY: SET_CUR `data` when `set`, else GET_CUR of data.size() bytes.
   virtual std::vector<std::uint8_t> xu_query(std::uint8_t unit, std::uint8_t selector, bool set,
                                              std::vector<std::uint8_t> data) = 0;

@@ -65,6 +65,7 @@ class ReplayVideoNode final : public VideoNode {
 
   void requeue(std::uint32_t) override {}
   void stop() override { streaming_ = false; }
+  bool paced_by_reader() const override { return !all_->realtime; }
 
   std::vector<std::uint8_t> xu_query(std::uint8_t unit, std::uint8_t selector, bool set,
                                      std::vector<std::uint8_t> data) override {

@@ -1,8 +1,11 @@
 // The replay description on disk: DIR/replay.yaml and DIR/frames/<node>_<frame>.bin.
+#include <charconv>
 #include <fstream>
 #include <opencv2/core.hpp>
 
 #include "slam/capture/replay.hpp"
+#include "slam/core/input_file.hpp"
+#include "slam/core/yaml_text.hpp"
 
 namespace coloc::capture {
 namespace fs = std::filesystem;
@@ -16,6 +19,7 @@ void write_bytes(const fs::path& path, std::span<const std::uint8_t> bytes) {
 }
 
 std::vector<std::uint8_t> read_bytes(const fs::path& path) {
+  check_input_file(path, "replay frame");  // a FIFO or a device never ends
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error("cannot read replay frame", {.file = path.string()});
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
@@ -96,6 +100,20 @@ void write_node(cv::FileStorage& fs, const ReplayNode& n, std::size_t k, const f
      << "}";
 }
 
+// A frame's kernel timestamp (ns, a decimal string: more digits than a double keeps); an error
+// naming the frame, not std::stoll's bare "stoll", when it is not an int64.
+std::int64_t timestamp_ns(const std::string& text, const fs::path& file, const std::string& field) {
+  std::int64_t value = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (ec == std::errc::result_out_of_range)
+    throw Error("'" + text + "' is out of range (a 64-bit integer of nanoseconds)",
+                {.file = file.string(), .field = field});
+  if (ec != std::errc() || end != text.data() + text.size() || text.empty())
+    throw Error("'" + text + "' is not an integer of nanoseconds",
+                {.file = file.string(), .field = field});
+  return value;
+}
+
 ReplayNode read_node(const cv::FileNode& n, const fs::path& dir, const fs::path& file) {
   ReplayNode r;
   r.info = {.device = static_cast<std::string>(n["device"]),
@@ -116,10 +134,13 @@ ReplayNode read_node(const cv::FileNode& n, const fs::path& dir, const fs::path&
                                static_cast<int>(m["width"]), static_cast<int>(m["height"]),
                                static_cast<double>(m["fps"])};
   }
-  for (const auto& f : n["frames"])
+  std::size_t k = 0;
+  for (const auto& f : n["frames"]) {
+    const std::string field = "frames[" + std::to_string(k++) + "].timestamp_ns";
     r.frames.push_back({read_bytes(dir / "frames" / static_cast<std::string>(f["file"])),
                         static_cast<std::uint32_t>(static_cast<int>(f["sequence"])),
-                        std::stoll(static_cast<std::string>(f["timestamp_ns"]))});
+                        timestamp_ns(static_cast<std::string>(f["timestamp_ns"]), file, field)});
+  }
   for (const auto& t : n["tables"])
     r.tables[static_cast<std::uint16_t>(static_cast<int>(t["id"]))] =
         read_bytes(dir / "frames" / static_cast<std::string>(t["file"]));
@@ -143,8 +164,11 @@ void save_replay(const ReplayDescription& d, const fs::path& dir) {
 ReplayDescription load_replay(const fs::path& dir) {
   const fs::path file = dir / "replay.yaml";
   ReplayDescription d;
+  // Through the YAML guard (OpenCV's reader can loop forever); a replay lists every frame.
+  const std::string text =
+      read_yaml_text(file, "replay description", {.max_bytes = std::size_t{256} << 20});
   try {
-    cv::FileStorage fs(file.string(), cv::FileStorage::READ);
+    cv::FileStorage fs(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
     if (!fs.isOpened()) throw Error("cannot open replay description", {.file = file.string()});
     d.realtime = static_cast<int>(fs["realtime"]) != 0;
     for (const auto& n : fs["nodes"])

@@ -16,9 +16,9 @@ NodeStream::~NodeStream() {
 void NodeStream::stop() {
   std::lock_guard lock(stop_mutex_);
   stop_ = true;
+  queue_.close();  // wakes a push waiting for room (paced_by_reader); pop() drains what is left
   if (thread_.joinable()) thread_.join();
   node_->stop();
-  queue_.close();
 }
 
 StreamCounters NodeStream::counters() const {
@@ -31,7 +31,19 @@ std::optional<std::pair<std::string, int>> NodeStream::error() const {
   return error_;
 }
 
+void NodeStream::count(std::uint32_t sequence, std::optional<std::uint32_t>& last_sequence) {
+  std::lock_guard lock(mutex_);
+  count_locked(sequence, last_sequence);
+}
+
+void NodeStream::count_locked(std::uint32_t sequence, std::optional<std::uint32_t>& last_sequence) {
+  if (last_sequence && sequence > *last_sequence + 1)
+    counters_.kernel_drops += sequence - *last_sequence - 1;
+  last_sequence = sequence;
+}
+
 void NodeStream::run() {
+  const bool lossless = node_->paced_by_reader();
   std::optional<std::uint32_t> last_sequence;
   try {
     while (!stop_) {
@@ -40,10 +52,16 @@ void NodeStream::run() {
       if (!b) continue;
       RawFrame f{{b->bytes.begin(), b->bytes.end()}, b->sequence, b->timestamp_ns};
       node_->requeue(b->index);
+      if (lossless) {
+        // Waits for room without mutex_, so the consumer can read the counters meanwhile.
+        count(f.sequence, last_sequence);
+        if (!queue_.push(std::move(f))) break;  // closed by stop()
+        std::lock_guard lock(mutex_);
+        ++counters_.frames;
+        continue;
+      }
       std::lock_guard lock(mutex_);
-      if (last_sequence && f.sequence > *last_sequence + 1)
-        counters_.kernel_drops += f.sequence - *last_sequence - 1;
-      last_sequence = f.sequence;
+      count_locked(f.sequence, last_sequence);
       // Only this thread pushes, so a queue seen with room still has room at the push.
       if (queue_.size() >= queue_.capacity()) {
         ++counters_.queue_drops;

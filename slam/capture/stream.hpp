@@ -4,7 +4,8 @@
 // bounded queue. A full queue (the consumer is behind) drops the new frame and counts it; the
 // driver's own drops show as gaps in the buffer sequence numbers and are counted too. Nothing
 // is dropped silently. A lost device (ENODEV) or the end of a replay ends the stream: the queue
-// is closed, the consumer drains what was captured, and error() says why.
+// is closed, the consumer drains what was captured, and error() says why. A node paced by its
+// reader (an unpaced replay) is never dropped from: the stream waits for room in the queue.
 #include <atomic>
 #include <memory>
 #include <mutex>
@@ -49,9 +50,14 @@ class NodeStream {
   // Why the stream ended by itself (the DeviceError's message and errno), if it did.
   std::optional<std::pair<std::string, int>> error() const;
   const std::filesystem::path& path() const { return node_->path(); }
+  // VideoNode::paced_by_reader: every frame comes, so waiting for the next one is never vain.
+  bool paced_by_reader() const { return node_->paced_by_reader(); }
 
  private:
   void run();
+  // Counts the driver's drops: the gap between `sequence` and the last one seen.
+  void count(std::uint32_t sequence, std::optional<std::uint32_t>& last_sequence);
+  void count_locked(std::uint32_t sequence, std::optional<std::uint32_t>& last_sequence);
 
   std::unique_ptr<VideoNode> node_;
   BoundedQueue<RawFrame> queue_;

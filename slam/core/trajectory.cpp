@@ -10,6 +10,7 @@
 #include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/input_file.hpp"
+#include "slam/core/rigid.hpp"
 
 namespace coloc {
 
@@ -73,10 +74,15 @@ Trajectory read_tum_trajectory(const std::filesystem::path& path) {
   return sorted;
 }
 
-void write_tum_trajectory(const std::filesystem::path& path, const Trajectory& trajectory) {
+std::size_t write_tum_trajectory(const std::filesystem::path& path, const Trajectory& trajectory) {
   AtomicOutput out(path);
   out << "# timestamp tx ty tz qx qy qz qw (world_from_cam)\n";
+  std::size_t non_finite = 0;
   for (const auto& p : trajectory) {
+    if (!std::isfinite(p.timestamp) || !finite_pose(p.world_from_cam)) {
+      ++non_finite;
+      continue;
+    }
     const Eigen::Vector3d& t = p.world_from_cam.translation();
     const Eigen::Quaterniond& q = p.world_from_cam.quaternion();
     out << std::fixed << std::setprecision(6) << p.timestamp << ' ' << std::setprecision(9) << t.x()
@@ -84,6 +90,7 @@ void write_tum_trajectory(const std::filesystem::path& path, const Trajectory& t
         << q.w() << '\n';
   }
   out.commit();
+  return non_finite;
 }
 
 std::vector<std::pair<std::size_t, std::size_t>> associate_by_time(const Trajectory& a,

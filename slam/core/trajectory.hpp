@@ -19,8 +19,10 @@ using Trajectory = std::vector<StampedPose>;
 
 // Throws coloc::Error naming the file and line for unreadable files or malformed lines.
 Trajectory read_tum_trajectory(const std::filesystem::path& path);
-// Writes with full precision (timestamps to 1e-6 s, 9 significant digits for poses).
-void write_tum_trajectory(const std::filesystem::path& path, const Trajectory& trajectory);
+// Writes with full precision (timestamps to 1e-6 s, 9 significant digits for poses). A pose
+// with a NaN / inf (or a non-finite timestamp) is not written: in a TUM file a lost frame is a
+// missing row. Returns how many were left out, for the caller to report.
+std::size_t write_tum_trajectory(const std::filesystem::path& path, const Trajectory& trajectory);
 
 // Pairs a[i] with the b pose nearest in time within max_dt seconds, each b used at most once
 // (the greedy nearest-first matching of the TUM tools' associate.py). Result: index pairs.

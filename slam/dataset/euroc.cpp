@@ -13,6 +13,7 @@
 
 #include "slam/core/error.hpp"
 #include "slam/core/input_file.hpp"
+#include "slam/core/yaml_text.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/dataset/text_table.hpp"
 
@@ -25,10 +26,11 @@ struct CameraInfo {
 };
 
 CameraInfo read_sensor_yaml(const std::filesystem::path& file) {
-  check_input_file(file, "sensor YAML");
+  // Through the YAML guard (OpenCV's reader can loop forever on some malformed input).
+  const std::string text = read_yaml_text(file, "sensor YAML");
   cv::FileStorage fs;
   try {
-    fs.open(file.string(), cv::FileStorage::READ);
+    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
   } catch (const cv::Exception& e) {
     throw Error("not a readable YAML file (" + std::string(e.err) + ")", {.file = file.string()});
   }

@@ -4,7 +4,11 @@
 // imu.txt ("t gx gy gz ax ay az": rad/s and m/s^2 in the IMU frame), read when present.
 
 #include <algorithm>
+#include <cstdint>
 #include <filesystem>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "slam/core/error.hpp"
 #include "slam/core/input_file.hpp"
@@ -21,22 +25,46 @@ struct Entry {
   std::filesystem::path depth;
 };
 
+// A frame listed twice (a list concatenated with itself) would be mapped twice, and the
+// trajectory would have two poses at one timestamp that `coloc eval` refuses: a repeated
+// timestamp is refused, naming both lines. `rows` holds (time, line), sorted by time.
+void refuse_repeats(const std::filesystem::path& file,
+                    const std::vector<std::pair<double, std::int64_t>>& rows) {
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    if (rows[i].first != rows[i - 1].first) continue;
+    const auto [first, second] = std::minmax(rows[i - 1].second, rows[i].second);
+    throw Error("timestamp " + std::to_string(rows[i].first) + " is listed twice (lines " +
+                    std::to_string(first) + " and " + std::to_string(second) +
+                    "): each frame must be listed once",
+                {.file = file.string(), .line = second});
+  }
+}
+
 // A "timestamp path" list as timestamps (a Trajectory with identity poses, so the shared
 // association code applies) and paths, both sorted by time.
 Trajectory list_as_trajectory(const std::filesystem::path& file, std::vector<std::string>* paths) {
-  std::vector<std::pair<double, std::string>> rows;
+  struct Row {
+    double time;
+    std::string path;
+    std::int64_t line;
+  };
+  std::vector<Row> rows;
   for (const auto& row : read_text_table(file)) {
     if (row.fields.size() < 2) {
       throw Error("expected 'timestamp path'", {.file = file.string(), .line = row.line});
     }
-    rows.emplace_back(parse_double(file, row, 0), row.fields[1]);
+    rows.push_back({parse_double(file, row, 0), row.fields[1], row.line});
   }
   std::stable_sort(rows.begin(), rows.end(),
-                   [](const auto& a, const auto& b) { return a.first < b.first; });
+                   [](const Row& a, const Row& b) { return a.time < b.time; });
+  std::vector<std::pair<double, std::int64_t>> times;
+  for (const Row& r : rows)
+    times.emplace_back(r.time, r.line);
+  refuse_repeats(file, times);
   Trajectory t;
-  for (auto& [time, path] : rows) {
-    t.push_back({time, SE3()});
-    paths->push_back(std::move(path));
+  for (Row& r : rows) {
+    t.push_back({r.time, SE3()});
+    paths->push_back(std::move(r.path));
   }
   return t;
 }
@@ -81,6 +109,7 @@ class TumSequence final : public Sequence {
 
  private:
   void read_associations(const std::filesystem::path& file) {
+    std::vector<std::pair<double, std::int64_t>> times;
     for (const auto& row : read_text_table(file)) {
       if (row.fields.size() < 4) {
         throw Error("expected 't_rgb rgb t_depth depth'",
@@ -88,7 +117,10 @@ class TumSequence final : public Sequence {
       }
       entries_.push_back(
           {parse_double(file, row, 0), row.fields[1], parse_double(file, row, 2), row.fields[3]});
+      times.emplace_back(entries_.back().t_color, row.line);
     }
+    std::stable_sort(times.begin(), times.end());
+    refuse_repeats(file, times);
   }
 
   void read_imu(const std::filesystem::path& file) {

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "slam/core/error.hpp"
+#include "slam/core/rigid.hpp"
 #include "slam/localize/localizer.hpp"
 
 struct coloc_localizer {
@@ -101,9 +102,12 @@ int coloc_localizer_localize(coloc_localizer* h, const std::uint8_t* image, int 
         depth ? cv::Mat(height, width, CV_32FC1, const_cast<float*>(depth), depth_stride)
               : cv::Mat();
     const LocalizationResult r = h->localizer->localize(img, dep, time);
-    if (r.state != LocalizationState::kLost) h->last_pose = r.world_from_cam;
+    // A pose with a NaN / inf is never handed out: the frame reports lost instead.
+    const bool usable = r.state != LocalizationState::kLost && coloc::finite_pose(r.world_from_cam);
+    if (usable) h->last_pose = r.world_from_cam;
     pose->time = time;
-    pose->state = static_cast<std::int32_t>(r.state);
+    pose->state = usable ? static_cast<std::int32_t>(r.state)
+                         : static_cast<std::int32_t>(COLOC_LOCALIZE_LOST);
     pose->inliers = r.inliers;
     const Eigen::Vector3d& t = h->last_pose.translation();
     const Eigen::Quaterniond& q = h->last_pose.quaternion();

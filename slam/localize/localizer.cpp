@@ -51,7 +51,15 @@ settings::Settings settings_saved_in(const LocalizationMap& map,
         settings::parse_settings(map.metadata.settings, map_path.string() + " (metadata.settings)");
     return s;
   } catch (const Error& e) {
-    throw Error("the settings saved in the map: " + e.message(), where);
+    // The key (and line) the settings reader named stay in the message: "must be positive"
+    // alone does not say which setting.
+    const ErrorContext& inner = e.context();
+    std::string named = e.message();
+    if (!inner.field.empty()) named = "'" + inner.field + "': " + named;
+    if (inner.line) named = "line " + std::to_string(*inner.line) + ", " + named;
+    throw Error("the settings saved in the map: " + named,
+                {.file = where.file,
+                 .field = inner.field.empty() ? where.field : where.field + "." + inner.field});
   }
 }
 

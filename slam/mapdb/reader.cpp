@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "slam/core/error.hpp"
+#include "slam/core/input_file.hpp"
 #include "slam/mapdb/schema.hpp"
 
 namespace coloc::slam::mapdb::detail {
@@ -14,8 +15,7 @@ namespace fs = std::filesystem;
 namespace {
 
 Database open_read_only(const fs::path& path) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw Error("no such map file", {.file = path.string()});
+  check_input_file(path, "map file");  // says what the path is: missing, a FIFO, a directory
   return Database(path, Database::Mode::kReadOnly);
 }
 

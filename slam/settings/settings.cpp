@@ -10,6 +10,8 @@
 
 #include "slam/core/error.hpp"
 #include "slam/core/input_file.hpp"
+#include "slam/core/rigid.hpp"
+#include "slam/core/yaml_text.hpp"
 
 namespace coloc::settings {
 namespace {
@@ -18,45 +20,14 @@ constexpr int kMaxImageSide = 65535;
 constexpr int kMaxFeatures = 100000;
 constexpr std::size_t kMaxSettingsBytes = 1 << 20;
 
-// OpenCV 4.6's YAML reader loops forever on a line of four or more dashes followed by more
-// text ("----x", found by scripts/fuzz_settings). A settings file has one use for dashes at the
-// start of a line, the document marker "---", so anything else starting with "---" is refused.
-void check_document_markers(const std::string& text, const std::filesystem::path& path) {
-  std::int64_t line = 1;
-  for (std::size_t start = 0; start < text.size(); ++line) {
-    std::size_t end = text.find('\n', start);
-    if (end == std::string::npos) end = text.size();
-    const std::string_view row(text.data() + start, end - start);
-    if (row.starts_with("---") && row.size() > 3 && row[3] != ' ' && row[3] != '\t' &&
-        row[3] != '\r') {
-      throw Error("a line starting with '---' that is not the YAML document marker",
-                  {.file = path.string(), .line = line});
-    }
-    start = end + 1;
-  }
-}
-
-// The whole file, refused when it cannot be a settings file: OpenCV's parser stops at a NUL
-// byte and asserts on some binary input instead of naming where the problem is.
+// Settings files go through the one YAML guard of slam/core (yaml_text.hpp): OpenCV 4.6's
+// reader loops forever on some malformed input ("----x") and asserts on binary data.
 std::string read_text(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error("cannot open settings file", {.file = path.string()});
-  std::string text;
-  char buffer[4096];
-  while (in.read(buffer, sizeof(buffer)) || in.gcount() > 0) {
-    text.append(buffer, static_cast<std::size_t>(in.gcount()));
-    if (text.size() > kMaxSettingsBytes)
-      throw Error("larger than 1 MiB: not a settings file", {.file = path.string()});
-  }
-  return text;
+  return read_yaml_text(path, "settings file", {.max_bytes = kMaxSettingsBytes});
 }
 
 void check_text(const std::string& text, const std::filesystem::path& path) {
-  if (const auto nul = text.find('\0'); nul != std::string::npos) {
-    throw Error("binary data (a NUL byte): not a YAML settings file",
-                {.file = path.string(), .offset = nul});
-  }
-  check_document_markers(text, path);
+  check_yaml_text(text, path, "settings file");
 }
 
 // Typed access to the top-level keys of one file, remembering which keys were used so the
@@ -132,13 +103,8 @@ class KeyReader {
     for (int r = 0; r < 4; ++r)
       for (int c = 0; c < 4; ++c)
         t(r, c) = m.at<double>(r, c);
-    if (!t.allFinite()) fail(key, "expected finite numbers");
-    const Eigen::Matrix3d rot = t.topLeftCorner<3, 3>();
-    if ((rot * rot.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-4 ||
-        rot.determinant() < 0.0)
-      fail(key, "the upper-left 3x3 block is not a rotation");
-    if (!t.bottomRows<1>().isApprox(Eigen::RowVector4d(0, 0, 0, 1)))
-      fail(key, "the last row must be 0 0 0 1");
+    // The one rigid check of slam/core (finite, a rotation, last row 0 0 0 1).
+    if (const auto problem = rigid_problem(t)) fail(key, "not a rigid transform: " + *problem);
     return t;
   }
 

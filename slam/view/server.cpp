@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "slam/core/error.hpp"
+#include "slam/view/connection_threads.hpp"
 
 namespace coloc::slam::view {
 
@@ -31,6 +32,10 @@ void ViewServerOptions::check() const {
   if (client_queue == 0) throw Error("must be at least 1", {.field = "client_queue"});
   if (max_clients == 0) throw Error("must be at least 1", {.field = "max_clients"});
   if (!(keepalive_s > 0.0)) throw Error("must be positive (seconds)", {.field = "keepalive_s"});
+  if (max_connections < max_clients + 4)
+    throw Error("must leave room for max_clients event streams and 4 more connections",
+                {.field = "max_connections"});
+  if (idle_timeout_s < 1) throw Error("must be at least 1 (seconds)", {.field = "idle_timeout_s"});
 }
 
 namespace {
@@ -195,9 +200,11 @@ ViewServer::ViewServer(ViewServerOptions options) : impl_(std::make_unique<Impl>
   options.check();
   impl_->options = std::move(options);
   Impl& d = *impl_;
-  const std::size_t threads = d.options.max_clients + 4;
-  d.http.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
-  d.http.set_keep_alive_timeout(2);
+  // A thread per connection (bounded): idle clients cannot queue a page load behind them.
+  const std::size_t threads = d.options.max_connections;
+  d.http.new_task_queue = [threads] { return new detail::ConnectionThreads(threads); };
+  d.http.set_keep_alive_timeout(d.options.idle_timeout_s);
+  d.http.set_read_timeout(d.options.idle_timeout_s, 0);
   // httplib's default is SO_REUSEPORT, which lets a second viewer share the port (and split
   // the pages between them) instead of failing; SO_REUSEADDR only allows a quick restart.
   d.http.set_socket_options([](socket_t sock) {

@@ -34,6 +34,10 @@ struct ViewServerOptions {
   std::size_t client_queue = 16;     // events queued per page before the oldest is dropped
   std::size_t max_clients = 8;       // event streams at once (each holds a connection thread)
   double keepalive_s = 1.0;          // a comment line when idle: finds closed pages
+  // Connections served at once, a thread each (page loads, images, event streams); idle ones
+  // are closed after idle_timeout_s without a request, so they cannot starve the others.
+  std::size_t max_connections = 256;
+  int idle_timeout_s = 2;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
 };

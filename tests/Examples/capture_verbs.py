@@ -50,6 +50,12 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         replay = os.path.join(tmp, "replay")
         run([coloc, "devices", "make-replay", "--sequence", tum, "--config", config, "--out", replay])
+        # Served when read: no frame is lost however busy the machine, so counts are exact. The
+        # paced replay (a camera's pace) drops what a slow reader cannot take: how many is the
+        # machine's speed, which the tests only account for.
+        unpaced = os.path.join(tmp, "replay_unpaced")
+        run([coloc, "devices", "make-replay", "--sequence", tum, "--config", config, "--out",
+             unpaced, "--unpaced"])
         d = json.loads(run([coloc, "devices", "--camera", "replay:" + replay, "--json"]).stdout)
         dev = d["devices"][0]
         assert dev["model"] == "D455" and dev["usb3"], dev
@@ -57,30 +63,39 @@ def main():
         assert kinds == ["depth", "metadata", "infrared", "color", "metadata"], kinds
 
         rec = os.path.join(tmp, "rec")
-        r = json.loads(run([coloc, "record", "--camera", "replay:" + replay, "--out", rec,
+        r = json.loads(run([coloc, "record", "--camera", "replay:" + unpaced, "--out", rec,
                             "--mode", "depth=640x480@30,color=640x480@30", "--json"]).stdout)
-        assert r["pairs"] == 36 and r["driver_drops"] == 0 and not r["unplugged"], r
+        assert r["pairs"] == 36 and r["driver_drops"] == 0 and r["queue_drops"] == 0, r
+        assert not r["unplugged"] and r["metadata_missing"] == 0, r
         assert len(lines(os.path.join(rec, "rgb.txt"))) == 36
         m = json.loads(run([coloc, "map", "--sequence", rec, "--trajectory",
                             os.path.join(tmp, "rec.tum"), "--no-global-ba", "--json"]).stdout)
         assert m["tracked"] >= 30, m
 
-        # SIGTERM (as Ctrl-C's SIGINT) ends the recording cleanly, everything written.
+        # SIGTERM (as Ctrl-C's SIGINT) ends the recording cleanly, everything written: sent
+        # once the recording is under way (its first image written), on the paced replay. A
+        # recording that ended first (a slow start) is as complete.
         rec_term = os.path.join(tmp, "rec_term")
         proc = subprocess.Popen([coloc, "record", "--camera", "replay:" + replay, "--out", rec_term,
                                  "--mode", "depth=640x480@30,color=640x480@30", "--json"],
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        time.sleep(1.5)
+        rgb_dir = os.path.join(rec_term, "rgb")
+        deadline = time.time() + 600  # only a stuck run reaches it
+        while proc.poll() is None and time.time() < deadline and not (
+                os.path.isdir(rgb_dir) and os.listdir(rgb_dir)):
+            time.sleep(0.02)
         proc.send_signal(signal.SIGTERM)
-        out, err = proc.communicate(timeout=60)
+        out, err = proc.communicate(timeout=600)
         assert proc.returncode == 0, (proc.returncode, err)
         r = json.loads(out)
         assert len(lines(os.path.join(rec_term, "rgb.txt"))) == r["pairs"], r
         assert len(os.listdir(os.path.join(rec_term, "depth"))) == r["pairs"], r
+        lost = r["driver_drops"] + r["queue_drops"] + r["unpaired"]
+        assert r["pairs"] == 36 or r["interrupted"] or lost > 0, r
 
         cut = os.path.join(tmp, "replay_cut")
         run([coloc, "devices", "make-replay", "--sequence", tum, "--config", config, "--out", cut,
-             "--unplug-after", "10"])
+             "--unplug-after", "10", "--unpaced"])
         rec2 = os.path.join(tmp, "rec_cut")
         r = run([coloc, "record", "--camera", "replay:" + cut, "--out", rec2, "--mode",
                  "depth=640x480@30,color=640x480@30"], expect=1)
@@ -88,13 +103,11 @@ def main():
         assert len(lines(os.path.join(rec2, "rgb.txt"))) == 10
         assert os.path.isfile(os.path.join(rec2, "camera.yaml"))
 
-        live = json.loads(run([coloc, "map", "--camera", "replay:" + replay, "--mode",
+        live = json.loads(run([coloc, "map", "--camera", "replay:" + unpaced, "--mode",
                                "depth=640x480@30,color=640x480@30", "--trajectory",
                                os.path.join(tmp, "live.tum"), "--no-global-ba", "--json"]).stdout)
-        # A loaded machine may fall behind the paced replay: what it drops is reported.
         lost = live["driver_drops"] + live["queue_drops"] + live["unpaired"]
-        assert 30 <= live["frames"] <= 36 and live["tracked"] >= 30, live
-        assert live["frames"] == 36 or lost > 0, live
+        assert live["frames"] == 36 and lost == 0 and live["tracked"] >= 30, live
 
         images = [os.path.join(chess, "franka_image-%d.png" % i) for i in range(1, 9)]
         out = os.path.join(tmp, "franka.yaml")
@@ -103,10 +116,11 @@ def main():
         assert abs(c["fx"] - 607.59) < 0.03 * 607.59, c
         # The written file is the fallback of a camera whose factory tables cannot be read.
         rec3 = os.path.join(tmp, "rec_calibrated")
-        r = json.loads(run([coloc, "record", "--camera", "replay:" + replay, "--out", rec3,
+        # --seconds counts the frames' own time: 0.5 s of a 30 Hz recording, whatever the load.
+        r = json.loads(run([coloc, "record", "--camera", "replay:" + unpaced, "--out", rec3,
                             "--mode", "depth=640x480@30,color=640x480@30", "--calibration", out,
                             "--seconds", "0.5", "--json"]).stdout)
-        assert 10 <= r["pairs"] <= 20, r
+        assert 10 <= r["pairs"] <= 20 and r["queue_drops"] == 0, r
         with open(os.path.join(rec3, "camera.yaml")) as f:
             fx = float(next(l for l in f if l.startswith("Camera1.fx:")).split(":")[1])
         assert abs(fx - c["fx"]) < 1e-3 * c["fx"], (fx, c["fx"])

@@ -2,7 +2,8 @@
 """`coloc session` end to end over real UDP on loopback, with two calibrations solved by
 `coloc handeye simulate|solve --output` and liblo's own tools as the XR systems and renderer:
   - `coloc session check` validates the description;
-  - a locked pair of controllers (vive:0, quest:0) is streamed with oscsend; oscdump receives
+  - a locked pair of controllers (vive:0, quest:0) is streamed, each instant's two poses in one
+    OSC bundle (garbage and an unknown participant come from oscsend); oscdump receives
     /coloc/users/<id>/controller/0 in the world frame, equal to the hand computation through
     each calibration;
   - garbage and an unknown participant are counted (--json), the session keeps going;
@@ -20,6 +21,7 @@ import subprocess
 import sys
 import tempfile
 import threading
+import struct
 import time
 
 import numpy as np
@@ -31,6 +33,42 @@ def free_udp_port():
     port = s.getsockname()[1]
     s.close()
     return port
+
+
+# Waits for what is bound to happen (a datagram on loopback, a child's output): the deadlines
+# only stop a stuck run, never a slow one (CI runs the suite on a busy 2-core machine).
+ARRIVAL_S = 60
+
+
+def wait_until(condition, timeout=ARRIVAL_S):
+    deadline = time.time() + timeout
+    while not condition():
+        if time.time() >= deadline:
+            return False
+        time.sleep(0.02)
+    return True
+
+
+def osc_string(text):
+    data = text.encode() + b"\0"
+    return data + b"\0" * (-len(data) % 4)
+
+
+def osc_message(address, types, *args):
+    """An OSC 1.0 message (types d, i, f, s), as oscsend writes it."""
+    body = b""
+    for t, a in zip(types, args):
+        body += {"d": lambda v: struct.pack(">d", v), "i": lambda v: struct.pack(">i", v),
+                 "f": lambda v: struct.pack(">f", v), "s": osc_string}[t](a)
+    return osc_string(address) + osc_string("," + types) + body
+
+
+def osc_bundle(*messages):
+    """A bundle to be handled at once (timetag 1): its messages arrive in one datagram."""
+    out = osc_string("#bundle") + struct.pack(">II", 0, 1)
+    for m in messages:
+        out += struct.pack(">i", len(m)) + m
+    return out
 
 
 def read_matrix(path, key):
@@ -76,12 +114,23 @@ def main():
     lines = []
     threading.Thread(target=lambda: [lines.append(l.split()) for l in dump.stdout],
                      daemon=True).start()
+    # oscdump listens once it prints a probe sent to it.
+    probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    ok &= wait_until(lambda: probe.sendto(b"/coloc/probe\0\0\0\0,\0\0\0",
+                                          ("127.0.0.1", dump_port)) > 0 and
+                     wait_until(lambda: any("/coloc/probe" in l for l in list(lines)), 0.2))
+    probe.close()
     log = os.path.join(tmp, "log.csv")
     session = subprocess.Popen([args.coloc, "session", "--config", config, "--listen", str(listen),
                                 "--publish", "osc.udp://127.0.0.1:%d" % dump_port, "--log", log,
-                                "--json"], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                text=True)
-    time.sleep(0.5)
+    # The node listens once it says so on stderr.
+    errors = []
+    threading.Thread(target=lambda: [errors.append(l) for l in session.stderr],
+                     daemon=True).start()
+    ok &= wait_until(lambda: any("OSC in on udp" in l for l in list(errors)) or
+                     session.poll() is not None)
 
     def send(*argv):
         subprocess.run(["oscsend", "127.0.0.1", str(listen)] + [str(a) for a in argv], check=True)
@@ -94,6 +143,7 @@ def main():
     vive_vr_cam = read_matrix(os.path.join(tmp, "vive.yaml"), "vr_from_camera")
     quest_vr_cam = read_matrix(os.path.join(tmp, "quest.yaml"), "vr_from_camera")
     quest_from_vive = quest_vr_cam @ np.linalg.inv(vive_vr_cam)
+    udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     for i in range(30):
         a = np.eye(4)
         a[:3, 3] = [0.5, 0.2, 1.0]
@@ -102,13 +152,24 @@ def main():
         qw = np.sqrt(max(0.0, 1 + np.trace(b[:3, :3]))) / 2
         q = [(b[2, 1] - b[1, 2]) / (4 * qw), (b[0, 2] - b[2, 0]) / (4 * qw),
              (b[1, 0] - b[0, 1]) / (4 * qw), qw]
-        send("/coloc/xr_controller", "diifffffffis", 1.0 + 0.01 * i, i, 1, *a[:3, 3], 0, 0, 0, 1,
-             0, "vive")
-        send("/coloc/xr_controller", "diifffffffis", 7.0 + 0.01 * i, i, 1, *b[:3, 3], *q, 0,
-             "quest")
-    time.sleep(0.5)
+        # Both systems' poses of one instant in one datagram (one bundle): `session stability`
+        # pairs them by arrival time, which two oscsend processes would space by their start-up
+        # time (tens of ms on a busy machine), not by anything the test controls.
+        pair = osc_bundle(
+            osc_message("/coloc/xr_controller", "diifffffffis", 1.0 + 0.01 * i, i, 1,
+                        *a[:3, 3], 0, 0, 0, 1, 0, "vive"),
+            osc_message("/coloc/xr_controller", "diifffffffis", 7.0 + 0.01 * i, i, 1,
+                        *b[:3, 3], *q, 0, "quest"))
+        udp.sendto(pair, ("127.0.0.1", listen))
+    # Every message was handled once the last one of each system came out in the world frame.
+    def published(user, t):
+        address = "/coloc/users/%s/controller/0" % user
+        return any(address in l and abs(float(l[l.index(address) + 2]) - t) < 1e-6
+                   for l in list(lines))
+    ok &= wait_until(lambda: published("vive", 1.29) and published("quest", 7.29))
     session.send_signal(2)
-    out, _ = session.communicate(timeout=20)
+    out = session.stdout.read()
+    session.wait(timeout=600)
     dump.terminate()
     stats = json.loads(out.strip().splitlines()[-1])
     ok &= session.returncode == 0

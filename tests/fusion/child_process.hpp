@@ -30,7 +30,8 @@ class ChildProcess {
 };
 
 // Runs a command to completion (at most timeout_ms) and returns its exit status (-1: timeout).
-int run(const std::vector<std::string>& argv, int timeout_ms = 5000);
+// The default only stops a stuck command: a busy machine may take seconds to start one.
+int run(const std::vector<std::string>& argv, int timeout_ms = 60000);
 
 // True when `tool` is found in PATH.
 bool have_tool(const std::string& tool);

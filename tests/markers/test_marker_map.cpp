@@ -117,5 +117,42 @@ TEST(MarkerMap, ErrorsNameTheField) {
   EXPECT_THROW(read_marker_map(dir / "missing.yaml"), Error);
 }
 
+// A NaN or infinite corner is an error naming the marker (register used to drop that marker as
+// an outlier and write its output).
+TEST(MarkerMap, NonFiniteCornersAreAnErrorNamingTheMarker) {
+  const auto dir = coloc::testing::temp_dir("markers_map_nan");
+  const auto p = dir / "nan.yaml";
+  const std::string head =
+      "%YAML:1.0\n---\nformat: coloc-marker-map\nversion: 1\ndictionary: DICT_4X4_50\n"
+      "markers:\n  - { id: 3, edge_length: 0.1, corners: [0,0,0, 1,0,0, 1,1,0, 0,1,0] }\n";
+  for (const std::string value : {".nan", ".inf", "-.inf"}) {
+    {
+      std::ofstream out(p);
+      out << head << "  - { id: 7, edge_length: 0.1, corners: [0,0,0, 1,0,0, 1," << value
+          << ",0, 0,1,0] }\n";
+    }
+    try {
+      read_marker_map(p);
+      ADD_FAILURE() << value << " accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.context().field, "markers[1].corners[7]") << value;
+      EXPECT_NE(e.message().find("marker 7"), std::string::npos) << e.message();
+    }
+  }
+}
+
+// The input OpenCV 4.6's YAML reader loops forever on is refused at once (the YAML guard of
+// slam/core), the line named.
+TEST(MarkerMap, YamlThatHangsOpenCvIsRefused) {
+  const auto p = coloc::testing::temp_dir("markers_map_loop") / "loop.yaml";
+  std::ofstream(p) << "%YAML:1.0\n---\nformat: coloc-marker-map\n----x\n";
+  try {
+    read_marker_map(p);
+    FAIL() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().line, 4);
+  }
+}
+
 }  // namespace
 }  // namespace coloc::markers

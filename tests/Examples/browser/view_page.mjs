@@ -90,11 +90,12 @@ async function live(page, seconds) {
   const end = Date.now() + 1000 * seconds;
   // Sample what the live panel shows; leave (close the browser while the stream is open) once
   // 6 frames up to frame 30 at least (a second of camera motion) and the growing map have
-  // arrived, or 3 s after the last new frame when the run ended sooner.
+  // arrived, or 30 s after the last new frame when the run ended sooner (a busy machine may
+  // stall the run for seconds).
   let lastIndex = null, lastChange = Date.now();
   const mapShown = async () => Number(await text(page, 'count-keyframes')) > 0;
   while (Date.now() < end && !(frames.length >= 6 && lastIndex >= 30 && await mapShown()) &&
-         !(frames.length > 0 && Date.now() - lastChange > 3000)) {
+         !(frames.length > 0 && Date.now() - lastChange > 30000)) {
     const f = await page.evaluate(() => window.colocView && window.colocView.state.live &&
       { index: window.colocView.state.live.index, state: window.colocView.state.live.state,
         pose: window.colocView.state.live.pose,

@@ -25,7 +25,11 @@ SessionConfig two_user_config(const std::filesystem::path& dir, const SE3& world
 
 SE3 pose(double yaw, const Eigen::Vector3d& t);  // rotation about z (rad), translation (m)
 
+// A wait for something bound to happen (a datagram on loopback, the node's thread at work):
+// only a stuck run reaches it, never a slow one (CI runs the suite on a busy 2-core machine).
+constexpr int kArrivalMs = 60000;
+
 // Waits (bounded) until condition() holds; polls every 2 ms (tests only).
-bool wait_for(const std::function<bool()>& condition, int timeout_ms = 3000);
+bool wait_for(const std::function<bool()>& condition, int timeout_ms = kArrivalMs);
 
 }  // namespace coloc::fusion::session::testing

@@ -2,6 +2,7 @@
 // name the file, line and field.
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <fstream>
 
@@ -121,6 +122,36 @@ TEST(SessionConfig, ReadsAFileAndResolvesCalibrationsNextToIt) {
   EXPECT_EQ(c.participants[0].calibration, dir / "a.yaml");
   EXPECT_EQ(c.participants[0].port, 9301);
   EXPECT_THROW(read_session_config(dir / "missing.yaml"), Error);
+}
+
+// A FIFO (which hung `coloc session check` and `session --config`) or a directory is an error
+// saying what the path is, at once.
+TEST(SessionConfig, FifoAndDirectoryAreNamedNotRead) {
+  const auto dir = coloc::testing::temp_dir("session_config_fifo");
+  ASSERT_EQ(::mkfifo((dir / "fifo.yaml").c_str(), 0600), 0);
+  try {
+    read_session_config(dir / "fifo.yaml");
+    FAIL() << "a FIFO was read";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("is a FIFO"), std::string::npos) << e.what();
+  }
+  try {
+    read_session_config(dir);
+    FAIL() << "a directory was read";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("is a directory"), std::string::npos) << e.what();
+  }
+}
+
+// An anchor pose that is not rigid is refused through the one rigid check of slam/core, the key
+// named.
+TEST(SessionConfig, NonRigidAnchorPoseIsRefused) {
+  const Error e = parse_error(
+      "anchor:\n  world_from_camera: [1.2, 0, 0, 1,  0, 1.2, 0, 2,  0, 0, 1.2, 0.5,  0, 0, 0, "
+      "1]\n" +
+      participants());
+  EXPECT_NE(e.message().find("not orthonormal"), std::string::npos) << e.what();
+  EXPECT_NE(std::string(e.what()).find("world_from_camera"), std::string::npos) << e.what();
 }
 
 }  // namespace

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <numbers>
 #include <sstream>
 
@@ -55,10 +57,12 @@ struct DumpLine {
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
 };
 
-// Reads oscdump lines until one for `address` (with state `state` if >= 0) arrives.
-bool read_until(ChildProcess& dump, const std::string& address, int state, DumpLine& got) {
+// Reads oscdump lines until one for `address` (with state `state` if >= 0) arrives, waiting at
+// most timeout_ms for each line.
+bool read_until(ChildProcess& dump, const std::string& address, int state, DumpLine& got,
+                int timeout_ms = testing::kArrivalMs) {
   std::string line;
-  while (dump.read_line(line, 3000)) {
+  while (dump.read_line(line, timeout_ms)) {
     std::istringstream fields(line);
     std::string timetag;
     DumpLine d;
@@ -116,11 +120,14 @@ TEST_F(NodeTest, OscsendInOscdumpOutCountersForBadInput) {
   // send until it prints.
   DumpLine got;
   bool seen = false;
-  for (int i = 0; i < 20 && !seen; ++i) {
+  const auto deadline =
+      std::chrono::steady_clock::now() + std::chrono::milliseconds(testing::kArrivalMs);
+  for (int i = 0; !seen && std::chrono::steady_clock::now() < deadline; ++i) {
     ASSERT_EQ(run(oscsend(vive_port, "/coloc/xr_pose", "diifffffff",
                           head_args(10.0 + i, 10 + i, 2.0, 0.5, 1.6))),
               0);
-    seen = read_until(dump, "/coloc/users/vive/head", 1, got);
+    // A short wait per try: a pose sent before oscdump listened is not coming.
+    seen = read_until(dump, "/coloc/users/vive/head", 1, got, 500);
   }
   ASSERT_TRUE(seen) << "oscdump printed no vive head pose";
   EXPECT_EQ(got.types, "diifffffff");
@@ -167,6 +174,29 @@ TEST_F(NodeTest, NewCalibrationFileReanchorsWhileRunning) {
       coloc::fusion::testing::run(oscsend(node.port(), "/coloc/session/reload", "s", {"vive"})), 0);
   ASSERT_TRUE(wait_for([&] { return node.reloads().size() >= 2; }));
   EXPECT_EQ(node.snapshot("vive").calibration_version, 1u);
+}
+
+// Hot reload takes only a rigid calibration: a scaled rotation (which moved a participant by
+// 35 cm) is a failed reload naming the key, and the participant keeps its calibration.
+TEST_F(NodeTest, NonRigidCalibrationIsNotTakenByHotReload) {
+  SessionNode node(
+      Session(testing::two_user_config(dir, SE3(), vive_from_camera, quest_from_camera)),
+      SessionNodeOptions{});
+  node.start();
+  {
+    std::ofstream out(dir / "b.tmp");
+    out << "device_from_marker: [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]\n"
+           "vr_from_camera: [1.3,0,0,1, 0,1.3,0,0, 0,0,1.3,0, 0,0,0,1]\n";
+  }
+  std::filesystem::rename(dir / "b.tmp", dir / "b.yaml");  // as `--output` writes it
+  ASSERT_TRUE(wait_for([&] { return !node.reloads().empty(); }));
+  const ReloadReport r = node.reloads().front();
+  EXPECT_EQ(r.id, "quest");
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.error.find("vr_from_camera"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find("not orthonormal"), std::string::npos) << r.error;
+  EXPECT_EQ(node.snapshot("quest").calibration_version, 0u);
+  EXPECT_NEAR(node.snapshot("quest").world_from_vr.translation().x(), -1.0, 1e-12);
 }
 
 }  // namespace

@@ -103,6 +103,32 @@ TEST(HandeyeIo, CalibrationFileRoundTrip) {
   }
 }
 
+// A calibration whose rotation is scaled or sheared, whose last row is not 0 0 0 1, or with a
+// NaN is refused with the file, key and line named: it would re-anchor a participant wrongly
+// (the session check, the node and its hot reload all read calibrations here).
+TEST(HandeyeIo, NonRigidCalibrationsAreRefusedNamingTheKey) {
+  const auto dir = testing::temp_dir("handeye_non_rigid");
+  const std::string marker = "device_from_marker: [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"scaled", "vr_from_camera: [1.1,0,0,1, 0,1.1,0,2, 0,0,1.1,3, 0,0,0,1]"},
+      {"sheared", "vr_from_camera: [1,0.2,0,1, 0,1,0,2, 0,0,1,3, 0,0,0,1]"},
+      {"last row", "vr_from_camera: [1,0,0,1, 0,1,0,2, 0,0,1,3, 0,0.5,0,1]"},
+      {"mirrored", "vr_from_camera: [-1,0,0,1, 0,1,0,2, 0,0,1,3, 0,0,0,1]"},
+      {"nan", "vr_from_camera: [1,0,0,nan, 0,1,0,2, 0,0,1,3, 0,0,0,1]"},
+  };
+  for (const auto& [name, line] : cases) {
+    write(dir / "c.yaml", marker + line + "\n");
+    try {
+      read_calibration(dir / "c.yaml");
+      ADD_FAILURE() << name << " accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.context().field, "vr_from_camera") << name;
+      EXPECT_EQ(e.context().line, 2) << name;
+      EXPECT_EQ(e.context().file, (dir / "c.yaml").string()) << name;
+    }
+  }
+}
+
 TEST(HandeyeGuidance, SessionAndNextRegistration) {
   SimulationOptions o;
   o.seed = 12;

@@ -59,16 +59,44 @@ TEST(CaptureCamera, ReplayedFramesComeBackRegisteredWithSensorTimestamps) {
   EXPECT_NE(camera.end_reason()->find("end of the replay"), std::string::npos);
 }
 
+// A replay served on demand has no clock: its streams wait for the reader, so a queue of one
+// frame loses nothing and every frame has its metadata, whatever the machine's load.
+TEST(CaptureCamera, UnpacedReplayWaitsForTheReaderAndLosesNothing) {
+  const testing::MemorySequence seq(20);
+  auto system = replay_system(replay_from_sequence(seq, testing::test_camera(), {}));
+  CameraOptions o = vga_options();
+  o.queue_capacity = 1;
+  RgbdCamera camera(*system, o);
+  EXPECT_EQ(drain(camera).size(), 20u);
+  const CaptureStats s = camera.stats();
+  EXPECT_EQ(s.depth.queue_drops + s.color.queue_drops, 0u);
+  EXPECT_EQ(s.pairing.pairs, 20u);
+  EXPECT_EQ(s.metadata_missing, 0u);
+}
+
+// Stopping a stream whose capture thread waits for room in the queue ends it (no hang).
+TEST(CaptureCamera, StopEndsAnUnpacedReplayNobodyReads) {
+  const testing::MemorySequence seq(20);
+  auto system = replay_system(replay_from_sequence(seq, testing::test_camera(), {}));
+  CameraOptions o = vga_options();
+  o.queue_capacity = 1;
+  RgbdCamera camera(*system, o);
+  camera.stop();
+  EXPECT_LE(drain(camera).size(), 1u);
+}
+
 TEST(CaptureCamera, KernelDropsAndQueueDropsAreCounted) {
   const testing::MemorySequence seq(12);
-  ReplayBuildOptions build{.kernel_drops = {3, 4, 9}, .metadata = false};
+  // Paced like a camera: a replay served on demand waits for its reader and never drops.
+  ReplayBuildOptions build{.kernel_drops = {3, 4, 9}, .metadata = false, .realtime = true};
   auto system = replay_system(replay_from_sequence(seq, testing::test_camera(), build));
   CameraOptions o = vga_options();
   o.queue_capacity = 2;
   RgbdCamera camera(*system, o);
   // Let the capture threads run through the 9 delivered frames before reading any: the queues
-  // hold 2 per stream, the rest is dropped and counted.
-  for (int wait = 0; wait < 5000; ++wait) {
+  // hold 2 per stream, the rest is dropped and counted. The deadline only stops a stuck run.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (std::chrono::steady_clock::now() < deadline) {
     const CaptureStats s = camera.stats();
     if (s.depth.frames + s.depth.queue_drops == 9 && s.color.frames + s.color.queue_drops == 9)
       break;

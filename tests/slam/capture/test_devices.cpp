@@ -8,6 +8,7 @@
 #include "slam/capture/discovery.hpp"
 #include "slam/capture/replay.hpp"
 #include "slam/capture/replay_build.hpp"
+#include "slam/core/yaml_text.hpp"
 #include "tests/slam/capture/test_support.hpp"
 #include "tests/testing/data.hpp"
 
@@ -170,6 +171,31 @@ TEST(CaptureReplay, SavedDescriptionLoadsTheSame) {
   EXPECT_EQ(back.nodes[0].tables, d.nodes[0].tables);
   EXPECT_EQ(back.nodes[3].formats[0].sizes[0].fps, d.nodes[3].formats[0].sizes[0].fps);
   EXPECT_THROW(load_replay(dir / "missing"), Error);
+}
+
+// An out-of-range or garbled frame timestamp names the frame (it said only "stoll"); a replay
+// description OpenCV's reader would loop on is refused by the YAML guard.
+TEST(CaptureReplay, BadDescriptionsNameTheField) {
+  const testing::MemorySequence seq(2);
+  const fs::path dir = coloc::testing::temp_dir("capture_replay_bad");
+  save_replay(replay_from_sequence(seq, testing::test_camera(), {}), dir);
+  const fs::path file = dir / "replay.yaml";
+  const std::string text = read_yaml_text(file, "replay description");
+  const std::size_t at = text.find("timestamp_ns");
+  ASSERT_NE(at, std::string::npos);
+  const std::size_t colon = text.find(':', at), end = text.find_first_of(",}\n", colon);
+  for (const std::string bad : {"99999999999999999999999", "12x"}) {
+    std::ofstream(file) << text.substr(0, colon + 1) << " \"" << bad << "\"" << text.substr(end);
+    try {
+      load_replay(dir);
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.context().field, "frames[0].timestamp_ns") << e.what();
+      EXPECT_EQ(e.context().file, file.string());
+    }
+  }
+  std::ofstream(file) << text << "----x\n";
+  EXPECT_THROW(load_replay(dir), Error);
 }
 
 }  // namespace

@@ -90,8 +90,10 @@ TEST(CaptureIio, BufferedSamplesAreScaledAndCombined) {
   std::vector<dataset::ImuSample> samples;
   {
     ImuStream imu(a, g);
-    // The files end: the stream's readers reach their ends and the thread finishes.
-    for (int i = 0; i < 200 && samples.size() < 9; ++i) {
+    // The files end: the stream's readers reach their ends and the thread finishes. The
+    // deadline only stops a stuck run (CI runs the suite on a busy 2-core machine).
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (samples.size() < 9 && std::chrono::steady_clock::now() < deadline) {
       auto more = imu.take();
       samples.insert(samples.end(), more.begin(), more.end());
       std::this_thread::sleep_for(std::chrono::milliseconds(5));

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 
 #include "slam/core/error.hpp"
@@ -23,6 +24,19 @@ TEST(Trajectory, WriteReadRoundTrip) {
     EXPECT_NEAR(back[i].timestamp, t[i].timestamp, 1e-6);
     EXPECT_LT((back[i].world_from_cam.matrix() - t[i].world_from_cam.matrix()).norm(), 1e-8);
   }
+}
+
+// No non-finite number reaches a trajectory file: such a pose is a missing row (lost), counted.
+TEST(Trajectory, NonFinitePosesAreLeftOutAndCounted) {
+  const auto dir = testing::temp_dir("trajectory_nan");
+  Trajectory t(3);
+  for (std::size_t i = 0; i < t.size(); ++i)
+    t[i].timestamp = 1.0 + static_cast<double>(i);
+  t[1].world_from_cam.translation().z() = std::nan("");
+  EXPECT_EQ(write_tum_trajectory(dir / "t.txt", t), 1u);
+  const Trajectory back = read_tum_trajectory(dir / "t.txt");
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_DOUBLE_EQ(back[1].timestamp, 3.0);
 }
 
 TEST(Trajectory, MalformedLineNamesFileAndLine) {

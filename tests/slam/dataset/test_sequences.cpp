@@ -51,6 +51,31 @@ TEST(TumSequence, ReadsAssociationsFile) {
   EXPECT_FALSE(seq->ground_truth().empty());
 }
 
+// Lists naming every frame twice were mapped as two frames per timestamp (a trajectory eval
+// refuses): a repeated timestamp is refused, both lines named.
+TEST(TumSequence, RepeatedTimestampsAreRefusedNamingTheLines) {
+  const auto dir = coloc::testing::temp_dir("tum_repeated");
+  std::ofstream(dir / "rgb.txt") << "# rgb\n1.0 rgb/a.png\n2.0 rgb/b.png\n1.0 rgb/a.png\n";
+  std::ofstream(dir / "depth.txt") << "1.0 depth/a.png\n2.0 depth/b.png\n";
+  try {
+    open_sequence(dir);
+    FAIL() << "a repeated timestamp was accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().file, (dir / "rgb.txt").string());
+    EXPECT_EQ(e.context().line, 4);
+    EXPECT_NE(e.message().find("lines 2 and 4"), std::string::npos) << e.what();
+  }
+  std::filesystem::remove(dir / "rgb.txt");
+  std::ofstream(dir / "associations.txt") << "1.0 rgb/a.png 1.0 depth/a.png\n"
+                                             "1.0 rgb/a.png 1.0 depth/a.png\n";
+  try {
+    open_sequence(dir);
+    FAIL() << "a repeated association was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(e.message().find("lines 1 and 2"), std::string::npos) << e.what();
+  }
+}
+
 // coloc map --frames A:B: the slice reads the whole sequence's frames A..B-1, nothing else.
 TEST(SequenceSlice, ReadsTheRangeOnly) {
   COLOC_REQUIRE_DATA(dir, "tum_fr1_rpy_180f");
