@@ -12,20 +12,16 @@ import argparse
 import json
 import math
 import os
+import pathlib
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
 
 
-def free_udp_port():
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
-
+sys.path.insert(0, next(str(p / "testing") for p in pathlib.Path(__file__).resolve().parents
+                        if p.name == "tests"))
+from coloc_testing import free_udp_port  # noqa: E402
 
 def write_tum(path, poses):
     with open(path, "w") as f:

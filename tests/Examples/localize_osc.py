@@ -13,6 +13,7 @@ Exit 0 on success, 1 on failure, 77 when oscdump/oscsend (liblo-tools) are missi
 import argparse
 import json
 import os
+import pathlib
 import shutil
 import socket
 import subprocess
@@ -28,13 +29,9 @@ def check(number, condition, detail=""):
     return bool(condition)
 
 
-def free_udp_port():
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
-
+sys.path.insert(0, next(str(p / "testing") for p in pathlib.Path(__file__).resolve().parents
+                        if p.name == "tests"))
+from coloc_testing import free_udp_port  # noqa: E402
 
 class Dump:
     """An `oscdump -L PORT` whose lines are collected by a thread."""

@@ -15,6 +15,7 @@ Exit 0 on success, 1 on failure, 77 when oscdump/oscsend (liblo-tools) are missi
 import argparse
 import json
 import os
+import pathlib
 import shutil
 import socket
 import subprocess
@@ -27,13 +28,9 @@ import time
 import numpy as np
 
 
-def free_udp_port():
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
-
+sys.path.insert(0, next(str(p / "testing") for p in pathlib.Path(__file__).resolve().parents
+                        if p.name == "tests"))
+from coloc_testing import free_udp_port  # noqa: E402
 
 # Waits for what is bound to happen (a datagram on loopback, a child's output): the deadlines
 # only stop a stuck run, never a slow one (CI runs the suite on a busy 2-core machine).
