@@ -13,4 +13,9 @@ sigset_t stop_signals();
 // signal is discarded even while blocked; with the default one it stays pending for sigwait.
 void block_stop_signals();
 
+// Waits for SIGINT/SIGTERM (blocked by block_stop_signals), at most `seconds` (< 0: no limit;
+// 0: not at all), then unblocks them in this thread: a second signal while the verb shuts down
+// (a stuck join, a slow save) ends the process by its default action instead of waiting forever.
+void wait_for_stop_signal(double seconds);
+
 }  // namespace coloc::cli

@@ -508,8 +508,7 @@ void add_localize_verb(CLI::App& app, CLI::App& bench) {
   cmd->add_option("--cam-from-head", args->head,
                   "YAML with the 4x4 cam_from_head (or cam_from_headset) of the camera on the "
                   "headset: OSC poses become world_from_head (the trajectory file stays "
-                  "world_from_cam)")
-      ->check(CLI::ExistingFile);
+                  "world_from_cam)");  // checked by its reader: a directory or FIFO named, exit 1
   cmd->add_option("--publish", args->publish,
                   "Send every localized pose as /coloc/pose to osc.udp://HOST:PORT (repeatable)");
   cmd->add_option("--listen", args->listen,

@@ -353,7 +353,7 @@ void add_markers_verb(CLI::App& app, CLI::App& bench) {
                  "Corner refinement: subpixel, edges, apriltag, contour, none")
       ->check(CLI::IsMember({"none", "subpixel", "contour", "apriltag", "edges"}))
       ->capture_default_str();
-  det.add_option("--params", d->params, "OpenCV detector_params.yml")->check(CLI::ExistingFile);
+  det.add_option("--params", d->params, "OpenCV detector_params.yml");  // checked by its reader
   det.add_flag("--json", d->json, "Machine-readable output on stdout");
   det.callback([d] { detect(*d); });
 

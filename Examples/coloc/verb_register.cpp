@@ -357,8 +357,7 @@ void add_register_verb(CLI::App& app) {
       ->check(CLI::ExistingFile);
   cmd.add_option("--markers", a->markers,
                  "Marker map of the scan (coloc scan-markers); without it, the map's dense cloud "
-                 "is registered to the scan (--scan, --sequence)")
-      ->check(CLI::ExistingFile);
+                 "is registered to the scan (--scan, --sequence)");  // checked by its reader
   cmd.add_option("--out", a->out, "Registered map database to write")->required();
   cmd.add_option("--level", a->level,
                  "With markers: rough (markers' rigid fit), markers (+ marker BA) or pointcloud "

@@ -1,11 +1,9 @@
 // coloc session: several users of different XR systems in one scanned frame (fusion/session);
 // coloc session check|stability; coloc bench session (loopback latency, multi-user accuracy).
 
-#include <signal.h>
 #include <spdlog/spdlog.h>
 
 #include <cstdio>
-#include <ctime>
 #include <fstream>
 #include <memory>
 #include <numbers>
@@ -13,6 +11,7 @@
 #include <vector>
 
 #include "Examples/coloc/cli_common.hpp"
+#include "Examples/coloc/stop_signals.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "fusion/session/bench.hpp"
 #include "fusion/session/log.hpp"
@@ -38,23 +37,6 @@ struct SessionArgs {
   bool no_watch = false;
   bool json = false;
 };
-
-// Blocks SIGINT/SIGTERM and waits for one (or `duration` seconds) synchronously: no handler.
-void wait_for_signal(double duration) {
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
-  if (duration > 0.0) {
-    timespec timeout{};
-    timeout.tv_sec = static_cast<time_t>(duration);
-    timeout.tv_nsec = static_cast<long>((duration - static_cast<double>(timeout.tv_sec)) * 1e9);
-    sigtimedwait(&signals, nullptr, &timeout);
-  } else {
-    int received = 0;
-    sigwait(&signals, &received);
-  }
-}
 
 Json stats_json(const fs::SessionNodeStats& s) {
   const fs::SessionStats& c = s.session;
@@ -155,15 +137,8 @@ void run_session(const SessionArgs& a) {
     fs::write_log_header(log);
     sink = [&log](const fs::LogRecord& r) { fs::write_log_record(log, r); };
   }
-  // Signals blocked before the node's thread starts, so only wait_for_signal takes them.
-  sigset_t signals, previous;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &signals, &previous);
-  struct sigaction default_action {};
-  default_action.sa_handler = SIG_DFL;
-  sigaction(SIGINT, &default_action, nullptr);  // background jobs start with SIGINT ignored
+  // Signals blocked before the node's thread starts, so only wait_for_stop_signal takes them.
+  block_stop_signals();
   fs::SessionNodeStats stats;
   {
     fs::SessionNode node(std::move(session), options, sink);
@@ -172,11 +147,10 @@ void run_session(const SessionArgs& a) {
         "session: OSC in on udp {}:{}, /coloc/users/<id>/... out to {} target(s); Ctrl-C "
         "to stop",
         a.bind, node.port(), a.publish.size());
-    wait_for_signal(a.duration);
+    wait_for_stop_signal(a.duration > 0.0 ? a.duration : -1.0);
     node.stop();
     stats = node.stats();
   }
-  pthread_sigmask(SIG_SETMASK, &previous, nullptr);
   if (log_file) {
     log.close();
     if (!log) throw Error("cannot write the session log", ErrorContext{.file = a.log});

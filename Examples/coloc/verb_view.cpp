@@ -108,7 +108,8 @@ std::string registration_of(const slam::mapdb::MapMetadata& metadata, const fs::
 }
 
 void run_view(const StaticViewArgs& a) {
-  // Before any thread starts: Ctrl-C is then taken by wait_for_signal, never by a server thread.
+  // Before any thread starts: Ctrl-C is then taken by wait_for_stop_signal, never by a server
+  // thread.
   block_stop_signals();
   const slam::bow::Vocabulary vocabulary = load_vocabulary(a.vocabulary);
   slam::mapdb::LoadedMap loaded;
@@ -158,7 +159,7 @@ void run_view(const StaticViewArgs& a) {
               << scene.points.positions.size() << " points); Ctrl-C to stop" << std::endl;
   }
   std::fflush(stdout);
-  wait_for_signal(a.seconds);
+  wait_for_stop_signal(a.seconds);
   server->stop();
   const auto s = server->stats();
   spdlog::info("viewer stopped: {} requests, {} pages ({} disconnected)", s.requests,
@@ -177,8 +178,8 @@ void add_view_verb(CLI::App& app, CLI::App& bench) {
       ->check(CLI::ExistingFile);
   cmd->add_option("--scan-voxel", a->scan_voxel, "Voxel size of the shown scan points (metres)")
       ->check(CLI::PositiveNumber);
-  cmd->add_option("--markers", a->markers, "Marker map of the scan (coloc scan-markers)")
-      ->check(CLI::ExistingFile);
+  // Checked by the marker map's reader (a directory or FIFO is named there, exit 1).
+  cmd->add_option("--markers", a->markers, "Marker map of the scan (coloc scan-markers)");
   cmd->add_option("--report", a->report, "Registration report folder (coloc register --report)")
       ->check(CLI::ExistingDirectory);
   cmd->add_option("--sequence", a->sequence, "The mapped sequence: keyframe images")

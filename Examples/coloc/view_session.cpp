@@ -1,6 +1,5 @@
 #include "Examples/coloc/view_session.hpp"
 
-#include <signal.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -72,25 +71,6 @@ void wait_for_page(const slam::view::ViewServer& server, double seconds) {
   spdlog::info("waiting up to {} s for a page at {}", seconds, server.url());
   if (!server.wait_for_client(seconds))
     spdlog::warn("no page after {} s: starting anyway", seconds);
-}
-
-void wait_for_signal(double seconds) {
-  const sigset_t s = stop_signals();
-  // Unblocked threads would take the signal with its default action (exit): the waiting thread
-  // blocks it so that it is taken here when every thread blocks it, else it ends the process,
-  // which is what Ctrl-C means either way.
-  sigset_t previous;
-  pthread_sigmask(SIG_BLOCK, &s, &previous);
-  if (seconds < 0.0) {
-    int received = 0;
-    sigwait(&s, &received);
-  } else if (seconds > 0.0) {
-    timespec timeout{};
-    timeout.tv_sec = static_cast<time_t>(seconds);
-    timeout.tv_nsec = static_cast<long>((seconds - static_cast<double>(timeout.tv_sec)) * 1e9);
-    sigtimedwait(&s, nullptr, &timeout);
-  }
-  pthread_sigmask(SIG_SETMASK, &previous, nullptr);
 }
 
 }  // namespace coloc::cli
@@ -220,7 +200,7 @@ void linger(const slam::view::ViewServer& server, const slam::view::LiveFeedStat
   spdlog::info(
       "serving the final map at {} {}", server.url(),
       seconds < 0.0 ? std::string("until Ctrl-C") : "for " + std::to_string(seconds) + " s");
-  wait_for_signal(seconds);
+  wait_for_stop_signal(seconds);
 }
 
 }  // namespace coloc::cli

@@ -111,9 +111,6 @@ void linger(const slam::view::ViewServer& server, const slam::view::LiveFeedStat
 // Waits until a page is connected or `seconds` passed (logs what it waits for).
 void wait_for_page(const slam::view::ViewServer& server, double seconds);
 
-// Waits for SIGINT/SIGTERM, at most `seconds` (< 0: no limit).
-void wait_for_signal(double seconds);
-
 }  // namespace coloc::cli
 
 namespace coloc::cli {

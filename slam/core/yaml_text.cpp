@@ -27,23 +27,64 @@ std::string read_yaml_text(const std::filesystem::path& path, std::string_view w
   return text;
 }
 
+namespace {
+
+bool is_space(char c) {
+  return c == ' ' || c == '\t' || c == '\r';
+}
+
+// Rest of a line after the document marker: blank or a comment.
+bool blank_or_comment(std::string_view rest) {
+  const std::size_t first = rest.find_first_not_of(" \t\r");
+  return first == std::string_view::npos || rest[first] == '#';
+}
+
+}  // namespace
+
 void check_yaml_text(const std::string& text, const std::filesystem::path& path,
                      std::string_view what) {
   if (const auto nul = text.find('\0'); nul != std::string::npos) {
     throw Error("binary data (a NUL byte): not a YAML " + std::string(what),
                 {.file = path.string(), .offset = nul});
   }
+  // OpenCV 4.6's top-level loop spins without advancing when, after the first document, it
+  // meets a '-' that does not begin "---". It gets there when the root collection ends before
+  // the end of the file: a root indented or on the marker's line ("----x", "--- a: 1", " -a"
+  // then a line at column 0), a flow root ("{...}" then more), or a "..." document end. Every
+  // file we read has a block collection at column 0 as its root and no "...", so those are
+  // refused; a root at column 0 ends only at the end of the file.
+  const auto refuse = [&](const char* why, std::int64_t line) {
+    throw Error(why, {.file = path.string(), .line = line});
+  };
+  bool root_seen = false;
   std::int64_t line = 1;
   for (std::size_t start = 0; start < text.size(); ++line) {
     std::size_t end = text.find('\n', start);
     if (end == std::string::npos) end = text.size();
     const std::string_view row(text.data() + start, end - start);
-    if (row.starts_with("---") && row.size() > 3 && row[3] != ' ' && row[3] != '\t' &&
-        row[3] != '\r') {
-      throw Error("a line starting with '---' that is not the YAML document marker",
-                  {.file = path.string(), .line = line});
-    }
     start = end + 1;
+    if (row.starts_with("...")) refuse("a YAML document end ('...'): not supported", line);
+    if (root_seen) {
+      if (row.starts_with("---")) {
+        refuse("a line starting with '---' inside the document (one document per file)", line);
+      }
+      continue;
+    }
+    const std::size_t first = row.find_first_not_of(" \t\r");
+    if (first == std::string_view::npos || row[first] == '#' || row[first] == '%') continue;
+    if (row.substr(first).starts_with("---")) {
+      if (!blank_or_comment(row.substr(first + 3))) {
+        refuse("text after the YAML document marker '---' on its line", line);
+      }
+      continue;
+    }
+    if (first != 0 || is_space(row[0])) {
+      refuse("the document's first key is indented: its root must start at column 0", line);
+    }
+    if (row[0] == '{' || row[0] == '[') {
+      refuse("a flow collection ('{' or '[') as the document's root: not supported", line);
+    }
+    root_seen = true;
   }
 }
 

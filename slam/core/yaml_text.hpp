@@ -1,11 +1,12 @@
 #pragma once
 // The one way a YAML file is read before it is parsed (by OpenCV's FileStorage from memory, or
-// by yaml-cpp). OpenCV 4.6's YAML reader loops forever on a line of four or more dashes
-// followed by more text ("----x", found by scripts/fuzz_settings) and asserts on some binary
-// input; a FIFO or a device never ends. So every YAML reader takes its text from here: the
-// path checked (check_input_file), the size bounded, a NUL byte and a line starting with "---"
-// other than the document marker refused, each as a coloc::Error naming the file (and line).
-// Dashes at the start of a line have one use in the YAML we read: the marker "---".
+// by yaml-cpp). OpenCV 4.6's YAML reader loops forever when its root collection ends before
+// the end of the file ("----x", found by scripts/fuzz_settings; " -A\nA\n-", found by
+// scripts/fuzz_yaml) and asserts on some binary input; a FIFO or a device never ends. So every
+// YAML reader takes its text from here: the path checked (check_input_file), the size bounded,
+// and refused, each as a coloc::Error naming the file (and line): a NUL byte, a root that is
+// indented, on the "---" line or a flow collection, a second "---" and a "..." line. Every
+// file we read is one document whose root is a block collection at column 0.
 #include <cstddef>
 #include <filesystem>
 #include <string>
@@ -21,7 +22,7 @@ struct YamlTextOptions {
 std::string read_yaml_text(const std::filesystem::path& path, std::string_view what,
                            const YamlTextOptions& options = {});
 
-// The checks of read_yaml_text on text already read (a NUL byte, a "---x" line).
+// The checks of read_yaml_text on text already read.
 void check_yaml_text(const std::string& text, const std::filesystem::path& path,
                      std::string_view what);
 

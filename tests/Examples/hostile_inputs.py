@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Issue 37's cross-cutting check: every file-reading verb fed the same hostile set
   - a FIFO (opening one for reading blocks until a writer comes: forever),
-  - YAML on which OpenCV 4.6's reader loops forever ("----x"),
+  - YAML on which OpenCV 4.6's reader loops forever ("----x", and a root that ends early),
   - a NaN matrix and a non-rigid (scaled) matrix, where the file holds one,
   - an empty file and a directory,
 exits 1 with a message naming the file, writes no output, and does not hang.
@@ -42,6 +42,9 @@ def make(kind, path, matrix_text=None):
     elif kind == "yaml_loop":
         with open(path, "w") as f:
             f.write("%YAML:1.0\n---\nkey: 1\n----x\n")
+    elif kind == "yaml_root":
+        with open(path, "w") as f:
+            f.write("%YAML:1.0\n -A\nA\n-")
     elif kind == "empty":
         open(path, "w").close()
     elif kind == "directory":
@@ -51,8 +54,19 @@ def make(kind, path, matrix_text=None):
             f.write(matrix_text(NAN if kind == "nan_matrix" else SCALED))
 
 
+def marker_map(data):
+    """A marker map whose one marker's first corner is the matrix's 4th number (NaN or 0)."""
+    corner = "0" if ".nan" not in data else ".nan"
+    return ("%%YAML:1.0\n---\nformat: coloc-marker-map\nversion: 1\ndictionary: DICT_4X4_50\n"
+            "markers:\n  - { id: 3, edge_length: 0.1, corners: [%s,0,0, 0.1,0,0, 0.1,0.1,0, "
+            "0,0.1,0] }\n" % corner)
+
+
 def case(coloc, tmp, name, kind, argv, hostile, outputs, matrix_text=None):
-    """Runs argv (with {hostile} and {tmp} filled in) once the hostile input is in place."""
+    """Runs argv (with {hostile} and {tmp} filled in) once the hostile input is in place.
+    A matrix kind where the file holds no matrix (matrix_text None) is not run."""
+    if kind in ("nan_matrix", "non_rigid") and matrix_text is None:
+        return
     make(kind, hostile, matrix_text)
     args = [a.format(hostile=hostile, tmp=tmp) for a in argv]
     what = "%s fed %s" % (name, kind)
@@ -85,13 +99,18 @@ def main():
     config = str(REPO / "Examples" / "RGB-D" / "TUM1.yaml")
     with open(config) as f:
         settings = f.read()
-    kinds = ["fifo", "yaml_loop", "empty", "directory", "nan_matrix", "non_rigid"]
+    kinds = ["fifo", "yaml_loop", "yaml_root", "empty", "directory", "nan_matrix", "non_rigid"]
     plain = ["fifo", "empty", "directory"]
     with tempfile.TemporaryDirectory() as base:
         replay = os.path.join(base, "replay")
         subprocess.run([coloc, "devices", "make-replay", "--sequence", tum, "--config", config,
                         "--out", replay, "--frames", "4", "--unpaced"], check=True,
                        capture_output=True)
+        map_db = os.path.join(base, "map.db")
+        subprocess.run([coloc, "map", "--sequence", tum, "--config", config, "--trajectory",
+                        os.path.join(base, "map.txt"), "--save", map_db], check=True,
+                       capture_output=True)
+        image = os.path.join(tum, "rgb", sorted(os.listdir(os.path.join(tum, "rgb")))[0])
         calibration = os.path.join(base, "vive.yaml")
         with open(calibration, "w") as f:
             f.write("device_from_marker: %s\nvr_from_camera: %s\n" % (IDENTITY, IDENTITY))
@@ -135,6 +154,33 @@ def main():
                   "depth=640x480@30,color=640x480@30", "--calibration", "{hostile}"],
                  os.path.join(tmp, "camera.yaml"), ["{tmp}/rec"],
                  lambda m: CAMERA + opencv_matrix("color_from_depth", m))
+            # The scan's marker map (registration and the viewer).
+            tmp = fresh()
+            case(coloc, tmp, "register --markers", kind,
+                 ["register", "--map", map_db, "--markers", "{hostile}", "--out", "{tmp}/r.db"],
+                 os.path.join(tmp, "markers.yaml"), ["{tmp}/r.db"],
+                 marker_map if kind == "nan_matrix" else None)
+            tmp = fresh()
+            case(coloc, tmp, "view --markers", kind,
+                 ["view", map_db, "--markers", "{hostile}", "--port", "0"],
+                 os.path.join(tmp, "markers.yaml"), [],
+                 marker_map if kind == "nan_matrix" else None)
+            # The camera's mounting on the headset (localize).
+            tmp = fresh()
+            case(coloc, tmp, "localize --cam-from-head", kind,
+                 ["localize", "--map", map_db, "--sequence", tum, "--config", config,
+                  "--trajectory", "{tmp}/t.txt", "--cam-from-head", "{hostile}"],
+                 os.path.join(tmp, "head.yaml"), ["{tmp}/t.txt"],
+                 lambda m: "%YAML:1.0\n---\n" + opencv_matrix("cam_from_head", m))
+            # A custom marker dictionary and OpenCV's detector parameters (markers detect).
+            tmp = fresh()
+            case(coloc, tmp, "markers detect --dictionary", kind,
+                 ["markers", "detect", image, "--dictionary", "{hostile}"],
+                 os.path.join(tmp, "dictionary.yml"), [])
+            tmp = fresh()
+            case(coloc, tmp, "markers detect --params", kind,
+                 ["markers", "detect", image, "--dictionary", "DICT_4X4_50", "--params",
+                  "{hostile}"], os.path.join(tmp, "detector_params.yml"), [])
             if kind in plain:
                 tmp = fresh()
                 case(coloc, tmp, "calibrate (image)", kind,

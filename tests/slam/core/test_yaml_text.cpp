@@ -4,6 +4,9 @@
 #include <sys/stat.h>
 
 #include <fstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "slam/core/error.hpp"
 #include "slam/core/yaml_text.hpp"
@@ -41,6 +44,39 @@ TEST(YamlText, RefusesWhatHangsOrIsNotAFile) {
   fs::create_directories(dir / "folder.yaml");
   EXPECT_NE(message_of(dir / "folder.yaml").find("is a directory"), std::string::npos);
   EXPECT_NE(message_of(dir / "missing.yaml").find("not found"), std::string::npos);
+}
+
+// Each of these hung OpenCV 4.6's cv::FileStorage (its root collection ends before the end of
+// the file); each is refused with its line, and the files we ship still pass.
+TEST(YamlText, RefusesARootThatEndsBeforeTheFile) {
+  const fs::path dir = testing::temp_dir("yaml_text_root");
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"%YAML:1.0\n -A\nA\n-", ":2"},          // found by scripts/fuzz_yaml
+      {"%YAML:1.0\n----x\n", ":2"},            // found by scripts/fuzz_settings
+      {"%YAML:1.0\n--- a: 1\n", ":2"},         // root on the marker's line
+      {"%YAML:1.0\n{a: 1}\n---\n-x\n", ":2"},  // flow root
+      {"%YAML:1.0\na: 1\n...\n-x\n", ":3"},    // document end
+      {"%YAML:1.0\na: 1\n---\nb: 2\n", ":3"},  // second document
+  };
+  for (const auto& [text, line] : cases) {
+    std::ofstream(dir / "bad.yaml", std::ios::trunc) << text;
+    EXPECT_NE(message_of(dir / "bad.yaml").find(line), std::string::npos) << text;
+  }
+  const std::string ok =
+      "%YAML:1.0\n\n# comment\n  # indented comment\n---  # marker\n\nCamera.fx: 1\n"
+      "list:\n  - { id: 3 }\n  - [1, 2]\n";
+  std::ofstream(dir / "ok.yaml", std::ios::trunc) << ok;
+  EXPECT_EQ(read_yaml_text(dir / "ok.yaml", "marker map"), ok);
+  // The shipped settings and the ORB-SLAM files users bring (when the shared data is there).
+  for (const fs::path& folder : {fs::path(COLOC_TEST_SOURCE_DIR) / "Examples" / "RGB-D",
+                                 testing::shared_data("orbslam_configs")}) {
+    if (folder.empty()) continue;
+    for (const auto& entry : fs::directory_iterator(folder)) {
+      if (entry.path().extension() == ".yaml") {
+        EXPECT_NO_THROW(read_yaml_text(entry.path(), "settings file")) << entry.path();
+      }
+    }
+  }
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // libFuzzer target over every YAML file kind coloc reads (built by scripts/fuzz_yaml with clang;
-// not part of CI). The first byte picks the reader, the rest is the file, written to a tmpfs
-// file with a .yaml name and read as a path would be. A coloc::Error is the expected outcome of
+// not part of CI). COLOC_FUZZ_YAML_KIND (0-7) fixes the reader, so that each kind gets its own
+// run and corpus; unset, the first byte picks it. The file is written to a tmpfs file with a
+// .yaml name and read as a path would be. A coloc::Error is the expected outcome of
 // bad input; a hang (libFuzzer -timeout), a crash, another exception or a sanitizer report is a
 // finding. Kinds: settings, marker map, dictionary, detector parameters, capture calibration,
 // replay description, session description, hand-eye calibration.
@@ -9,6 +10,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/aruco.hpp>
@@ -29,6 +31,15 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr int kKinds = 8;
+
+// -1: the first byte of each input picks the kind.
+int fixed_kind() {
+  static const int kind = [] {
+    const char* text = std::getenv("COLOC_FUZZ_YAML_KIND");
+    return text == nullptr ? -1 : std::atoi(text) % kKinds;
+  }();
+  return kind;
+}
 
 const fs::path& folder() {
   static const fs::path dir = [] {
@@ -79,13 +90,18 @@ extern "C" int LLVMFuzzerInitialize(int* /*argc*/, char*** /*argv*/) {
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  if (size == 0) return 0;
-  const int kind = data[0] % kKinds;
+  int kind = fixed_kind();
+  if (kind < 0) {
+    if (size == 0) return 0;
+    kind = data[0] % kKinds;
+    ++data;
+    --size;
+  }
   // A replay description is DIR/replay.yaml; the others take the file itself.
   const fs::path file = folder() / (kind == 5 ? "replay.yaml" : "input.yaml");
   {
     std::ofstream out(file, std::ios::binary | std::ios::trunc);
-    out.write(reinterpret_cast<const char*>(data + 1), static_cast<std::streamsize>(size - 1));
+    out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
   }
   try {
     read_as(kind, file);
