@@ -126,8 +126,10 @@ void DetectorOptions::check() const {
   }
 }
 
-void read_detector_parameters(const std::filesystem::path& path,
-                              cv::aruco::DetectorParameters& parameters) {
+namespace {
+
+void read_parameters_text(const std::filesystem::path& path,
+                          cv::aruco::DetectorParameters& parameters) {
   // Through the YAML guard (OpenCV's reader can loop forever on some malformed input).
   const std::string text = read_yaml_text(path, "detector parameters file");
   const ErrorContext ctx{.file = path.string()};
@@ -154,6 +156,14 @@ void read_detector_parameters(const std::filesystem::path& path,
   if (!parameters.readDetectorParameters(root)) {
     throw Error("cannot read detector parameters", ctx);
   }
+}
+
+}  // namespace
+
+void read_detector_parameters(const std::filesystem::path& path,
+                              cv::aruco::DetectorParameters& parameters) {
+  return read_naming_file(path, "detector parameters file",
+                          [&] { return read_parameters_text(path, parameters); });
 }
 
 MarkerDetector::MarkerDetector(DetectorOptions options) : options_(std::move(options)) {

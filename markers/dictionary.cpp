@@ -51,7 +51,9 @@ bool looks_like_file(const std::string& s) {
   return ext == ".yml" || ext == ".yaml" || ext == ".json" || ext == ".xml";
 }
 
-cv::Ptr<cv::aruco::Dictionary> read_custom_dictionary(const std::string& path) {
+namespace {
+
+cv::Ptr<cv::aruco::Dictionary> read_dictionary_text(const std::string& path) {
   ErrorContext ctx{.file = path};
   // Through the YAML guard (OpenCV's reader can loop forever on some malformed input).
   const std::string text = read_yaml_text(path, "dictionary file");
@@ -86,6 +88,12 @@ cv::Ptr<cv::aruco::Dictionary> read_custom_dictionary(const std::string& path) {
   auto dictionary = cv::makePtr<cv::aruco::Dictionary>();
   if (!dictionary->readDictionary(root)) throw Error("cannot read the dictionary", ctx);
   return dictionary;
+}
+
+}  // namespace
+
+cv::Ptr<cv::aruco::Dictionary> read_custom_dictionary(const std::string& path) {
+  return read_naming_file(path, "dictionary file", [&] { return read_dictionary_text(path); });
 }
 
 }  // namespace

@@ -169,7 +169,9 @@ void write_marker_map(const std::filesystem::path& path, const MarkerMap& map) {
   write_file_atomically(output.target(), fs.releaseAndGetString());
 }
 
-MarkerMap read_marker_map(const std::filesystem::path& path) {
+namespace {
+
+MarkerMap read_marker_map_text(const std::filesystem::path& path) {
   // Through the YAML guard (OpenCV's reader can loop forever on some malformed input).
   const std::string text = read_yaml_text(path, "marker map");
   cv::FileStorage fs;
@@ -205,6 +207,12 @@ MarkerMap read_marker_map(const std::filesystem::path& path) {
     map.markers.emplace(m.id, std::move(m));
   }
   return map;
+}
+
+}  // namespace
+
+MarkerMap read_marker_map(const std::filesystem::path& path) {
+  return read_naming_file(path, "marker map", [&] { return read_marker_map_text(path); });
 }
 
 }  // namespace coloc::markers

@@ -71,7 +71,7 @@ struct LocalizeArgs {
 
 // cam_from_head (4x4, OpenCV YAML key `cam_from_head`, or `cam_from_headset` as the twin's
 // headset/calibration.yaml has it): the camera's mounting on the headset.
-SE3 read_cam_from_head(const fs::path& path) {
+SE3 read_cam_from_head_text(const fs::path& path) {
   // Through the YAML guard (OpenCV's reader can loop forever on some malformed input).
   const std::string text = read_yaml_text(path, "cam-from-head file");
   cv::FileStorage file;
@@ -95,6 +95,11 @@ SE3 read_cam_from_head(const fs::path& path) {
   // NaN, a scaled or sheared rotation or a bad last row would put NaN or a wrong pose on the
   // wire: the one rigid check of slam/core refuses them, naming the file and key.
   return rigid_from_matrix(t, {.file = path.string(), .field = key});
+}
+
+SE3 read_cam_from_head(const fs::path& path) {
+  return read_naming_file(path, "cam-from-head file",
+                          [&] { return read_cam_from_head_text(path); });
 }
 
 // What the localizer runs on: the map, the settings and the sequence read with them.

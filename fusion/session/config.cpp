@@ -204,7 +204,9 @@ const ParticipantConfig* SessionConfig::find(std::string_view id) const {
   return nullptr;
 }
 
-SessionConfig parse_session_config(const std::string& text, const std::filesystem::path& origin) {
+namespace {
+
+SessionConfig parse_session_text(const std::string& text, const std::filesystem::path& origin) {
   YAML::Node root;
   try {
     root = YAML::Load(text);
@@ -237,6 +239,12 @@ SessionConfig parse_session_config(const std::string& text, const std::filesyste
   }
   c.check();
   return c;
+}
+
+}  // namespace
+
+SessionConfig parse_session_config(const std::string& text, const std::filesystem::path& origin) {
+  return read_naming_file(origin, "session file", [&] { return parse_session_text(text, origin); });
 }
 
 SessionConfig read_session_config(const std::filesystem::path& path) {

@@ -285,7 +285,9 @@ DepthColorCalibration nominal_d455_calibration() {
   return c;
 }
 
-DepthColorCalibration load_calibration_file(const std::filesystem::path& path, int depth_width,
+namespace {
+
+DepthColorCalibration read_calibration_text(const std::filesystem::path& path, int depth_width,
                                             int depth_height) {
   // Through the YAML guard: OpenCV's reader can loop forever, a FIFO never ends.
   const std::string text = read_yaml_text(path, "camera file");
@@ -340,6 +342,14 @@ DepthColorCalibration load_calibration_file(const std::filesystem::path& path, i
         rigid_from_matrix(pose, {.file = path.string(), .field = "color_from_depth"});
   }
   return c;
+}
+
+}  // namespace
+
+DepthColorCalibration load_calibration_file(const std::filesystem::path& path, int depth_width,
+                                            int depth_height) {
+  return read_naming_file(path, "camera file",
+                          [&] { return read_calibration_text(path, depth_width, depth_height); });
 }
 
 }  // namespace coloc::capture

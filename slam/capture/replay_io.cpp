@@ -161,7 +161,9 @@ void save_replay(const ReplayDescription& d, const fs::path& dir) {
   fs << "]";
 }
 
-ReplayDescription load_replay(const fs::path& dir) {
+namespace {
+
+ReplayDescription read_replay_text(const fs::path& dir) {
   const fs::path file = dir / "replay.yaml";
   ReplayDescription d;
   // Through the YAML guard (OpenCV's reader can loop forever); a replay lists every frame.
@@ -182,6 +184,13 @@ ReplayDescription load_replay(const fs::path& dir) {
   if (d.nodes.empty())
     throw Error("replay description without nodes", {.file = file.string(), .field = "nodes"});
   return d;
+}
+
+}  // namespace
+
+ReplayDescription load_replay(const fs::path& dir) {
+  return read_naming_file(dir / "replay.yaml", "replay description",
+                          [&] { return read_replay_text(dir); });
 }
 
 }  // namespace coloc::capture

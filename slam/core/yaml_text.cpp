@@ -52,7 +52,10 @@ void check_yaml_text(const std::string& text, const std::filesystem::path& path,
   // the end of the file: a root indented or on the marker's line ("----x", "--- a: 1", " -a"
   // then a line at column 0), a flow root ("{...}" then more), or a "..." document end. Every
   // file we read has a block collection at column 0 as its root and no "...", so those are
-  // refused; a root at column 0 ends only at the end of the file.
+  // refused; a root at column 0 ends only at the end of the file. OpenCV reads a text starting
+  // with '{' as JSON and one starting with "<?xml" as XML (marker maps may be either): other
+  // parsers, so these rules are for YAML only.
+  if (text.starts_with("{") || text.starts_with("<?xml")) return;
   const auto refuse = [&](const char* why, std::int64_t line) {
     throw Error(why, {.file = path.string(), .line = line});
   };

@@ -12,6 +12,8 @@
 #include <string>
 #include <string_view>
 
+#include "slam/core/error.hpp"
+
 namespace coloc {
 
 struct YamlTextOptions {
@@ -25,5 +27,21 @@ std::string read_yaml_text(const std::filesystem::path& path, std::string_view w
 // The checks of read_yaml_text on text already read.
 void check_yaml_text(const std::string& text, const std::filesystem::path& path,
                      std::string_view what);
+
+// Runs `read` (a reader of the file at `path`) and turns anything else it throws into a
+// coloc::Error naming the file: OpenCV asserts on a node of an unexpected type (isMap() in
+// operator[]) and its parser lets std::length_error out on some input, yaml-cpp throws its
+// conversions (scripts/fuzz_yaml found each). A coloc::Error passes unchanged.
+template <class Read>
+auto read_naming_file(const std::filesystem::path& path, std::string_view what, Read&& read)
+    -> decltype(read()) {
+  try {
+    return read();
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw Error("malformed " + std::string(what) + ": " + e.what(), {.file = path.string()});
+  }
+}
 
 }  // namespace coloc

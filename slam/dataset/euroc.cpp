@@ -25,7 +25,9 @@ struct CameraInfo {
   SE3 body_from_cam;
 };
 
-CameraInfo read_sensor_yaml(const std::filesystem::path& file) {
+namespace {
+
+CameraInfo read_sensor_text(const std::filesystem::path& file) {
   // Through the YAML guard (OpenCV's reader can loop forever on some malformed input).
   const std::string text = read_yaml_text(file, "sensor YAML");
   cv::FileStorage fs;
@@ -67,6 +69,12 @@ CameraInfo read_sensor_yaml(const std::filesystem::path& file) {
   info.body_from_cam =
       SE3::from_matrix(Eigen::Map<Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(t.data()));
   return info;
+}
+
+}  // namespace
+
+CameraInfo read_sensor_yaml(const std::filesystem::path& file) {
+  return read_naming_file(file, "sensor YAML", [&] { return read_sensor_text(file); });
 }
 
 double ns_to_s(const std::filesystem::path& file, const TextRow& row) {

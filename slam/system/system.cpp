@@ -22,6 +22,9 @@ std::string SystemSummary::describe() const {
             ? fmt::format(", rolling-shutter readout estimated {:.1f} ms", 1e3 * *estimated_readout)
             : std::string())
     << ", markers " << mapping.markers << "\n"
+    << "keyframes made " << keyframe_decisions.made << " (kept " << keyframes << "), deferred "
+    << keyframe_decisions.deferred << " frames, refused for a busy mapper "
+    << keyframe_decisions.refused_busy << "\n"
     << "tracking ms/frame: median " << total_ms.median << ", p99 " << total_ms.p99
     << " (extraction median " << extract_ms.median << ")\n";
   const SampleStats ba = summarize(mapping.ba_ms);
@@ -222,6 +225,9 @@ tracking::TrackingResult System::track(const cv::Mat& image, const cv::Mat& dept
   pose_ms_.push_back(r.pose_ms);
   local_map_ms_.push_back(r.local_map_ms);
   keyframe_ms_.push_back(r.keyframe_ms);
+  decisions_.made += r.keyframe ? 1 : 0;
+  decisions_.deferred += r.keyframe_deferred ? 1 : 0;
+  decisions_.refused_busy += r.keyframe_refused_busy ? 1 : 0;
   if (observer_ != nullptr && observer_->wants_frame(timestamp)) notify(image, r, timestamp);
   return r;
 }
@@ -297,6 +303,7 @@ SystemSummary System::summary() const {
   s.pose_ms = summarize(pose_ms_);
   s.local_map_ms = summarize(local_map_ms_);
   s.keyframe_ms = summarize(keyframe_ms_);
+  s.keyframe_decisions = decisions_;
   return s;
 }
 

@@ -30,6 +30,13 @@ class MarkerDetector;
 
 namespace coloc::slam::system {
 
+// Tracking's keyframe decisions over a run, in frames.
+struct KeyframeDecisions {
+  std::size_t made = 0;          // keyframes made (the map keeps those not culled)
+  std::size_t deferred = 0;      // a keyframe was needed but put off (a weak or off-course frame)
+  std::size_t refused_busy = 0;  // ... refused: three keyframes were queued for the mapper
+};
+
 struct SystemSummary {
   std::size_t frames = 0, tracked = 0, lost = 0;
   std::size_t keyframes = 0, points = 0;
@@ -41,6 +48,7 @@ struct SystemSummary {
   loop::LoopStats loop;                            // empty when loop closing is off
   SampleStats extract_ms, track_ms, total_ms;      // per frame, tracking thread
   SampleStats pose_ms, local_map_ms, keyframe_ms;  // stages of track_ms
+  KeyframeDecisions keyframe_decisions;
   std::string describe() const;
 };
 
@@ -123,6 +131,7 @@ class System {
   bool running_ = true;  // mapping threads not yet shut down
   FrameObserver* observer_ = nullptr;
   std::vector<double> extract_ms_, track_ms_, pose_ms_, local_map_ms_, keyframe_ms_;
+  KeyframeDecisions decisions_;
 };
 
 // A new System, or (with `load_map`) one continuing that saved map; progress of the load on

@@ -38,6 +38,8 @@ void TrackingOptions::check() const {
     throw Error("TrackingOptions.motion_search_radius must be > 0");
   if (!(local_search_th > 0.0)) throw Error("TrackingOptions.local_search_th must be > 0");
   if (min_local_inliers < 10) throw Error("TrackingOptions.min_local_inliers must be >= 10");
+  if (min_frames_between_keyframes < 0)
+    throw Error("TrackingOptions.min_frames_between_keyframes must be >= 0");
   if (max_frames_between_keyframes < 1)
     throw Error("TrackingOptions.max_frames_between_keyframes must be >= 1");
   if (max_local_keyframes < 1) throw Error("TrackingOptions.max_local_keyframes must be >= 1");
@@ -205,9 +207,11 @@ bool Tracker::track_frame(int image_rows, double timestamp, TrackingResult& resu
     }
     result.local_map_ms = stage.elapsed_ms();
     stage.restart();
-    make_keyframe = need_keyframe();
-    if (make_keyframe) {
-      make_keyframe = !defer_keyframe();
+    const KeyframeNeed need = need_keyframe();
+    result.keyframe_refused_busy = need == KeyframeNeed::kMapperBusy;
+    if (need == KeyframeNeed::kYes) {
+      result.keyframe_deferred = defer_keyframe();
+      make_keyframe = !result.keyframe_deferred;
     } else {
       keyframes_deferred_ = 0;  // a streak of deferrals ends where no keyframe was needed
     }
@@ -506,18 +510,18 @@ bool Tracker::track_local_map() {
          (after_reloc ? options_.min_local_inliers_after_reloc : options_.min_local_inliers);
 }
 
-bool Tracker::need_keyframe() const {
+Tracker::KeyframeNeed Tracker::need_keyframe() const {
   const map::Map& m = shared_.map;
-  if (!sink_ || !sink_->accepting()) return false;
+  if (!sink_ || !sink_->accepting()) return KeyframeNeed::kNo;
   const std::size_t n_kfs = m.keyframe_count();
   const std::uint64_t since_reloc =
       last_reloc_frame_.valid() ? current_.id.value() - last_reloc_frame_.value() : ~0ULL;
   const auto max_frames = static_cast<std::uint64_t>(options_.max_frames_between_keyframes);
   if (since_reloc < max_frames && n_kfs > max_frames &&
       matches_inliers_ >= options_.reloc_pause_min_inliers)
-    return false;
+    return KeyframeNeed::kNo;
   const map::Keyframe* ref = m.keyframe(reference_);
-  if (!ref) return true;
+  if (!ref) return KeyframeNeed::kYes;
   const int min_obs = n_kfs <= 2 ? 2 : 3;
   int ref_matches = 0;
   for (MapPointId p : ref->frame.points) {
@@ -540,10 +544,10 @@ bool Tracker::need_keyframe() const {
   const std::uint64_t since_kf =
       last_keyframe_frame_.valid() ? current_.id.value() - last_keyframe_frame_.value() : ~0ULL;
   const bool c1a = since_kf >= max_frames;
-  // keyframe_behind_busy_mapper: an empty queue counts as idle here; the BA is interrupted below.
-  const bool queue_free = options_.keyframe_behind_busy_mapper && sink_->queued() == 0;
+  // TrackingOptions::min_frames_between_keyframes: the mapper's state only with
+  // keyframe_needs_idle_mapper; a busy one has its BA interrupted below.
   const bool c1b = since_kf >= static_cast<std::uint64_t>(options_.min_frames_between_keyframes) &&
-                   (mapping_idle || queue_free);
+                   (mapping_idle || !options_.keyframe_needs_idle_mapper);
   const bool c1c = matches_inliers_ < ref_matches * 0.25 || need_close;
   // The reference is a keyframe this tracker made from a far weaker frame (blurred, or at the
   // edge of the map): TrackingOptions::weak_reference_ratio.
@@ -552,10 +556,10 @@ bool Tracker::need_keyframe() const {
       matches_inliers_ > options_.weak_reference_ratio * last_keyframe_inliers_;
   const bool c2 = (matches_inliers_ < ref_matches * ref_ratio || need_close || weak_reference) &&
                   matches_inliers_ > 15;
-  if (!((c1a || c1b || c1c) && c2)) return false;
-  if (mapping_idle) return true;
+  if (!((c1a || c1b || c1c) && c2)) return KeyframeNeed::kNo;
+  if (mapping_idle) return KeyframeNeed::kYes;
   sink_->interrupt();
-  return sink_->queued() < 3;
+  return sink_->queued() < 3 ? KeyframeNeed::kYes : KeyframeNeed::kMapperBusy;
 }
 
 bool Tracker::defer_keyframe() {

@@ -37,7 +37,18 @@ struct TrackingOptions {
   int min_local_inliers = 30;  // local-map inliers to stay tracked
   int min_local_inliers_after_reloc = 50;
   int max_frames_between_keyframes = 30;  // fps
-  int min_frames_between_keyframes = 0;
+  // ORB-SLAM takes a keyframe the frame needs (too few of the reference's points tracked)
+  // before max_frames_between_keyframes only while local mapping is idle, so how many a run
+  // makes depends on how fast the mapper is: our sequential replays (the mapper idle at every
+  // frame) made 73 on fr1/rpy 180f where ORB-SLAM2 live makes 32-35, and every local BA window
+  // grew with them (1.1 s median on the whole of fr1/rpy). Here that condition is "at least
+  // min_frames_between_keyframes frames since the last keyframe", whatever the mapper is doing,
+  // so replayed, paced and live runs decide alike. 4 frames (30 Hz): fr1/rpy 180f, start frames
+  // 0-7, sequential, ORB-SLAM3 file: 34 keyframes (31-36) instead of 73 (47-84), ATE mean 16.1
+  // instead of 15.5 mm, local BA ~80 ms median instead of ~300 (docs/results/mapping-speed.md).
+  // keyframe_needs_idle_mapper restores ORB-SLAM's rule (with min_frames_between_keyframes 0).
+  int min_frames_between_keyframes = 4;
+  bool keyframe_needs_idle_mapper = false;
   int close_tracked_limit = 100;   // RGB-D rule: fewer close tracked points than this ...
   int close_untracked_limit = 70;  // ... and more close untracked ones => new keyframe
   int new_points_min = 100;        // new close points per keyframe (then stop at far depth)
@@ -63,20 +74,6 @@ struct TrackingOptions {
   // frame with our TUM1 file went back to 37.5 mm.
   double keyframe_defer_deviation_deg = 6.0;
   int keyframe_defer_deviation_max = 4;
-  // ORB-SLAM's rule takes a keyframe the frame needs (too few of the reference's points tracked)
-  // early only while local mapping is idle, so live runs make fewer keyframes than sequential
-  // ones (7-Scenes: 64-79 paced, 117 sequential). With this, an empty queue counts as idle: the
-  // keyframe goes in and interrupts the mapper's BA, as ORB-SLAM does for the keyframes it takes
-  // while the mapper is busy. Paced, interleaved runs (2026-11-27 10:57-11:05), ATE as tracked
-  // in mm, median (std): 7-Scenes 34.34 (0.87) -> 33.71 (0.88) over 6, but with 143-165
-  // keyframes instead of 64-79; fr1/rpy, our file, 13.98 (0.61) -> 13.52 (0.89) over 8; fr1/rpy,
-  // the ORB-SLAM3 file, 21.57 (9.15) -> 13.30 (8.49) over 8. Queued without interrupting, 7-Scenes
-  // gained as much but fr1/rpy with our file lost 1.3 mm (16 runs). Off by default: 7-Scenes
-  // again (8 runs) 34.54 (0.88) -> 33.77 (1.05) keeps the gain but not a lower spread, the twins
-  // (one paced run each) lose as tracked (room 3.41 -> 3.59, building seed 1 9.75 -> 12.95; 8.20
-  // -> 6.51 after the global BA), and a slow walk gets twice the keyframes. Sequential runs never
-  // meet a busy mapper.
-  bool keyframe_behind_busy_mapper = false;
   // A keyframe made from a frame that tracked poorly (blurred after keyframe_defer_max
   // deferrals, or a view the map barely covered) is a poor reference: it holds few points seen
   // twice, so ORB-SLAM's ratio test (c2) stays false while frames track more than 0.75 x that
@@ -147,6 +144,10 @@ struct TrackingResult {
   SE3 cam_from_world;  // valid when state == kOk
   int inliers = 0;
   bool keyframe = false;
+  // The frame needed a keyframe but it was put off (TrackingOptions::keyframe_defer_ratio,
+  // keyframe_defer_deviation_deg), or refused because three were already queued for the mapper.
+  bool keyframe_deferred = false;
+  bool keyframe_refused_busy = false;
   bool relocalized = false;
   double extract_ms = 0.0, track_ms = 0.0;  // feature extraction, the rest of tracking
   // Stages of track_ms: initial pose (motion model / reference keyframe / relocalization),
@@ -205,7 +206,8 @@ class Tracker {
   bool relocalize();
   bool track_local_map();
   void update_local_map();
-  bool need_keyframe() const;
+  enum class KeyframeNeed { kNo, kYes, kMapperBusy };
+  KeyframeNeed need_keyframe() const;
   // A needed keyframe is put off when this frame tracked far worse than the ones before it
   // (TrackingOptions::keyframe_defer_ratio) or far off the motion model's prediction
   // (keyframe_defer_deviation_deg); counts the deferrals in a row.

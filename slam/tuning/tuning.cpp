@@ -35,7 +35,7 @@ constexpr std::array kTunables{
   Tunable{"tracking.keyframe_defer_max", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_defer_max; }},
   Tunable{"tracking.keyframe_defer_deviation_deg", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_defer_deviation_deg; }},
   Tunable{"tracking.keyframe_defer_deviation_max", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_defer_deviation_max; }},
-  Tunable{"tracking.keyframe_behind_busy_mapper", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_behind_busy_mapper; }},
+  Tunable{"tracking.keyframe_needs_idle_mapper", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_needs_idle_mapper; }},
   Tunable{"tracking.readout_settle_keyframes", [](SystemOptions& o) -> Field { return &o.tracking.readout_settle_keyframes; }},
   Tunable{"tracking.keyframe_keeps_outliers", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_keeps_outliers; }},
   Tunable{"tracking.rolling_shutter_keep_ratio", [](SystemOptions& o) -> Field { return &o.tracking.rolling_shutter_keep_ratio; }},

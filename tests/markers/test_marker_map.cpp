@@ -4,6 +4,8 @@
 
 #include <fstream>
 
+#include "markers/detector.hpp"
+#include "markers/dictionary.hpp"
 #include "markers/marker_map.hpp"
 #include "slam/core/error.hpp"
 #include "tests/testing/data.hpp"
@@ -152,6 +154,35 @@ TEST(MarkerMap, YamlThatHangsOpenCvIsRefused) {
   } catch (const Error& e) {
     EXPECT_EQ(e.context().line, 4);
   }
+}
+
+// Inputs scripts/fuzz_yaml found, on which OpenCV's parser lets std::length_error out or asserts
+// (isMap() on a document that is no map): each reader turns them into an Error naming the file.
+TEST(MarkerFiles, WhatOpenCvThrowsIsAnErrorNamingTheFile) {
+  const auto dir = coloc::testing::temp_dir("marker_files_fuzz");
+  const auto expect_named = [&](const std::string& name, const std::string& text, auto read) {
+    const auto path = dir / name;
+    std::ofstream(path, std::ios::binary) << text;
+    try {
+      read(path);
+      FAIL() << name << " accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.context().file, path.string()) << e.what();
+    } catch (const std::exception& e) {
+      FAIL() << name << ": " << e.what() << " (not a coloc::Error)";
+    }
+  };
+  expect_named("map.yaml",
+               "%YAML:1.0\n---\nformat: coloc-marker-map\nversion: 1\ndictixnar0,0, 1,\xc1,0, "
+               "0y: DICT_4X4_50\nmarkers:\n  - { id: 3, edge_length: 0.1, :1.0\n--)\nf0orMat: "
+               "coloc-marker-map\nversi\n",
+               [](const auto& p) { read_marker_map(p); });
+  expect_named("dictionary.yml", "%YAML:1.0\n--2222222222222222222222222222222222222",
+               [](const auto& p) { make_dictionary(p.string()); });
+  expect_named("params.yml", "%YAML:1.0nSizeMin:0\n-(--SizeMi", [](const auto& p) {
+    auto parameters = cv::aruco::DetectorParameters::create();
+    read_detector_parameters(p, *parameters);
+  });
 }
 
 }  // namespace

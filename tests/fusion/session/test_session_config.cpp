@@ -145,6 +145,20 @@ TEST(SessionConfig, FifoAndDirectoryAreNamedNotRead) {
 
 // An anchor pose that is not rigid is refused through the one rigid check of slam/core, the key
 // named.
+// yaml-cpp's conversion of a malformed flow map (found by scripts/fuzz_yaml) is an Error naming
+// the file, not a YAML::Exception.
+TEST(SessionConfig, WhatYamlCppThrowsIsAnErrorNamingTheFile) {
+  const std::string text =
+      "anchor:\n  world_from_camera: [1, 2, 0.5, 0, 0, 0.7071068, 0.7071068]\nparticipants:\n"
+      "  - {id: vive, kin!ncho id: vdyaml}: ";
+  try {
+    parse_session_config(text, "fuzzed.yaml");
+    FAIL() << "accepted";
+  } catch (const coloc::Error& e) {
+    EXPECT_EQ(e.context().file, "fuzzed.yaml") << e.what();
+  }
+}
+
 TEST(SessionConfig, NonRigidAnchorPoseIsRefused) {
   const Error e = parse_error(
       "anchor:\n  world_from_camera: [1.2, 0, 0, 1,  0, 1.2, 0, 2,  0, 0, 1.2, 0.5,  0, 0, 0, "

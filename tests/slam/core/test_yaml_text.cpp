@@ -51,12 +51,12 @@ TEST(YamlText, RefusesWhatHangsOrIsNotAFile) {
 TEST(YamlText, RefusesARootThatEndsBeforeTheFile) {
   const fs::path dir = testing::temp_dir("yaml_text_root");
   const std::vector<std::pair<std::string, std::string>> cases = {
-      {"%YAML:1.0\n -A\nA\n-", ":2"},          // found by scripts/fuzz_yaml
-      {"%YAML:1.0\n----x\n", ":2"},            // found by scripts/fuzz_settings
-      {"%YAML:1.0\n--- a: 1\n", ":2"},         // root on the marker's line
-      {"%YAML:1.0\n{a: 1}\n---\n-x\n", ":2"},  // flow root
-      {"%YAML:1.0\na: 1\n...\n-x\n", ":3"},    // document end
-      {"%YAML:1.0\na: 1\n---\nb: 2\n", ":3"},  // second document
+      {"%YAML:1.0\n -A\nA\n-", ":2"},               // found by scripts/fuzz_yaml
+      {"%YAML:1.0\n----x\n", ":2"},                 // found by scripts/fuzz_settings
+      {"%YAML:1.0\n--- a: 1\n", ":2"},              // root on the marker's line
+      {"%YAML:1.0\n---\n{a: 1}\n---\n-x\n", ":3"},  // flow root
+      {"%YAML:1.0\na: 1\n...\n-x\n", ":3"},         // document end
+      {"%YAML:1.0\na: 1\n---\nb: 2\n", ":3"},       // second document
   };
   for (const auto& [text, line] : cases) {
     std::ofstream(dir / "bad.yaml", std::ios::trunc) << text;
@@ -67,6 +67,11 @@ TEST(YamlText, RefusesARootThatEndsBeforeTheFile) {
       "list:\n  - { id: 3 }\n  - [1, 2]\n";
   std::ofstream(dir / "ok.yaml", std::ios::trunc) << ok;
   EXPECT_EQ(read_yaml_text(dir / "ok.yaml", "marker map"), ok);
+  // OpenCV reads these as JSON and XML, not YAML.
+  for (const std::string other : {"{\n  \"a\": 1\n}\n", "<?xml version=\"1.0\"?>\n<a>1</a>\n"}) {
+    std::ofstream(dir / "other.yaml", std::ios::trunc) << other;
+    EXPECT_EQ(read_yaml_text(dir / "other.yaml", "marker map"), other);
+  }
   // The shipped settings and the ORB-SLAM files users bring (when the shared data is there).
   for (const fs::path& folder : {fs::path(COLOC_TEST_SOURCE_DIR) / "Examples" / "RGB-D",
                                  testing::shared_data("orbslam_configs")}) {
