@@ -42,10 +42,17 @@ void LocalMapper::local_bundle_adjustment(KeyframeId current) {
     if (w.problem.readout.estimate && !result.aborted)
       update_readout(w.problem.readout.current + result.readout_change);
   }
+  LocalBaRun run{.points = w.problem.points.size(),
+                 .observations = w.problem.observations.size(),
+                 .iterations = result.iterations,
+                 .timing = result.timing};
+  for (const optim::BundleProblem::Pose& p : w.problem.poses)
+    ++(p.fixed ? run.fixed_poses : run.free_poses);
   std::lock_guard slock(state_mutex_);
   ++stats_.ba_runs;
   stats_.ba_aborted += result.aborted ? 1 : 0;
   stats_.ba_ms.push_back(ms);
+  stats_.ba.push_back(run);
 }
 
 void LocalMapper::update_readout(double estimate) {

@@ -75,6 +75,14 @@ struct LocalMappingOptions {
   void check() const;
 };
 
+// One local BA: its window and where its time went (the figures its window and iteration
+// budgets were set by; `coloc map` prints their medians and shares).
+struct LocalBaRun {
+  std::size_t free_poses = 0, fixed_poses = 0, points = 0, observations = 0;
+  int iterations = 0;
+  optim::BundleTiming timing;
+};
+
 struct MappingStats {
   int keyframes = 0;
   int ba_runs = 0;
@@ -85,6 +93,7 @@ struct MappingStats {
   int points_triangulated = 0;
   int markers = 0;            // marker observations stored in keyframes
   std::vector<double> ba_ms;  // wall time of each local BA
+  std::vector<LocalBaRun> ba;
   // Wall time of each keyframe in the mapper, BA included: against the camera's frame period
   // times the frames between keyframes, whether a live mapper keeps up.
   std::vector<double> keyframe_ms;

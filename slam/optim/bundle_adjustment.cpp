@@ -12,6 +12,7 @@
 #include <memory>
 
 #include "slam/core/error.hpp"
+#include "slam/core/timing.hpp"
 #include "slam/optim/gravity_cost.hpp"
 #include "slam/optim/gyro_cost.hpp"
 
@@ -250,6 +251,7 @@ int solve(BundleProblem& problem, std::vector<double>& pose_params, Extras& x, c
           const BundleOptions& options, const std::vector<std::uint8_t>& skip, bool robust,
           int iterations, const std::atomic<bool>* abort, BundleResult& result) {
   double& delta = x.delta;
+  const Stopwatch build;
   ceres::Problem::Options popts;
   popts.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem ceres_problem(popts);
@@ -311,7 +313,12 @@ int solve(BundleProblem& problem, std::vector<double>& pose_params, Extras& x, c
   AbortCallback callback(abort);
   sopts.callbacks.push_back(&callback);
   ceres::Solver::Summary summary;
+  result.timing.build_ms += build.elapsed_ms();
   ceres::Solve(sopts, &ceres_problem, &summary);
+  result.timing.preprocess_ms += 1e3 * summary.preprocessor_time_in_seconds;
+  result.timing.evaluate_ms += 1e3 * (summary.residual_evaluation_time_in_seconds +
+                                      summary.jacobian_evaluation_time_in_seconds);
+  result.timing.linear_solver_ms += 1e3 * summary.linear_solver_time_in_seconds;
   if (result.iterations == 0) result.initial_cost = summary.initial_cost;
   result.final_cost = summary.final_cost;
   return static_cast<int>(summary.iterations.size());
@@ -404,6 +411,7 @@ double rms_kept(const std::vector<Entry>& entries, const std::vector<std::uint8_
 BundleResult bundle_adjust(BundleProblem& problem, const Intrinsics& k,
                            const BundleOptions& options, const std::atomic<bool>* abort) {
   options.check();
+  const Stopwatch total;
   BundleResult result;
   result.outlier.assign(problem.observations.size(), 0);
   std::vector<double> pose_params(7 * problem.poses.size());
@@ -459,6 +467,7 @@ BundleResult bundle_adjust(BundleProblem& problem, const Intrinsics& k,
   for (std::size_t i = 0; i < problem.poses.size(); ++i) {
     problem.poses[i].cam_from_world = pose_from_array(&pose_params[7 * i]);
   }
+  result.timing.total_ms = total.elapsed_ms();
   return result;
 }
 

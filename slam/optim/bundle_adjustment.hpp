@@ -110,11 +110,20 @@ struct BundleOptions {
   void check() const;
 };
 
+// Where a bundle adjustment's time went, from Ceres' summaries (milliseconds, summed over the
+// passes): building the problems, Ceres' preprocessing, evaluating residuals and Jacobians,
+// and the linear solver (Schur elimination and factorization).
+struct BundleTiming {
+  double build_ms = 0.0, preprocess_ms = 0.0, evaluate_ms = 0.0, linear_solver_ms = 0.0;
+  double total_ms = 0.0;
+};
+
 struct BundleResult {
   std::vector<std::uint8_t> outlier;  // per observation, after the first pass
   bool aborted = false;               // the abort flag was raised (results still usable)
   int iterations = 0;
   double initial_cost = 0.0, final_cost = 0.0;
+  BundleTiming timing;
   double readout_change = 0.0;  // seconds, estimated readout - problem.readout.current
   // With BundleProblem::gravity: the unit vector against gravity in the world frame (zero
   // without), and the accelerometer biases by Gravity::bias (camera frame, m/s^2).

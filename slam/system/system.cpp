@@ -14,6 +14,41 @@
 
 namespace coloc::slam::system {
 
+namespace {
+
+// Median window and iterations of the local BAs, and the shares of their time.
+std::string describe_local_ba(const std::vector<mapping::LocalBaRun>& runs) {
+  const auto median = [&](auto field) {
+    std::vector<double> v;
+    for (const mapping::LocalBaRun& r : runs)
+      v.push_back(static_cast<double>(field(r)));
+    return summarize(v).median;
+  };
+  optim::BundleTiming sum;
+  for (const mapping::LocalBaRun& r : runs) {
+    sum.build_ms += r.timing.build_ms;
+    sum.preprocess_ms += r.timing.preprocess_ms;
+    sum.evaluate_ms += r.timing.evaluate_ms;
+    sum.linear_solver_ms += r.timing.linear_solver_ms;
+    sum.total_ms += r.timing.total_ms;
+  }
+  const auto share = [&](double ms) {
+    return sum.total_ms > 0.0 ? 100.0 * ms / sum.total_ms : 0.0;
+  };
+  return fmt::format(
+      "local BA window median: {} free + {} fixed keyframes, {} points, {} observations, {} "
+      "iterations; time: problem {:.0f} %, Ceres preprocessing {:.0f} %, residuals and Jacobians "
+      "{:.0f} %, linear solver {:.0f} %",
+      median([](const auto& r) { return r.free_poses; }),
+      median([](const auto& r) { return r.fixed_poses; }),
+      median([](const auto& r) { return r.points; }),
+      median([](const auto& r) { return r.observations; }),
+      median([](const auto& r) { return r.iterations; }), share(sum.build_ms),
+      share(sum.preprocess_ms), share(sum.evaluate_ms), share(sum.linear_solver_ms));
+}
+
+}  // namespace
+
 std::string SystemSummary::describe() const {
   std::ostringstream s;
   s << "frames " << frames << ", tracked " << tracked << ", lost " << lost << ", keyframes "
@@ -33,6 +68,7 @@ std::string SystemSummary::describe() const {
     << ", points culled " << mapping.points_culled << ", fused " << mapping.points_fused
     << ", triangulated " << mapping.points_triangulated << "; mapper ms per keyframe median "
     << summarize(mapping.keyframe_ms).median << ", p99 " << summarize(mapping.keyframe_ms).p99;
+  if (!mapping.ba.empty()) s << "\n" << describe_local_ba(mapping.ba);
   std::vector<double> correction_ms;
   for (const auto& l : loop.loops)
     correction_ms.push_back(l.ms);
