@@ -35,6 +35,7 @@
 #include "slam/eval/trajectory_error.hpp"
 #include "slam/localize/frame_pacer.hpp"
 #include "slam/localize/localizer.hpp"
+#include "slam/settings/opencv_matrix.hpp"
 
 namespace coloc::cli {
 namespace {
@@ -82,19 +83,14 @@ SE3 read_cam_from_head_text(const fs::path& path) {
   }
   if (!file.isOpened()) throw Error("cannot open the calibration file", {.file = path.string()});
   const char* key = file["cam_from_head"].empty() ? "cam_from_headset" : "cam_from_head";
-  cv::Mat m;
-  file[key] >> m;
-  if (m.rows != 4 || m.cols != 4)
+  // NaN, a scaled or sheared rotation or a bad last row would put NaN or a wrong pose on the
+  // wire: read_rigid_matrix refuses them (slam/core's rigid check), naming the file and key.
+  const auto t = settings::read_rigid_matrix(file[key], {.file = path.string(), .field = key});
+  if (!t) {
     throw Error("expected a 4x4 matrix under cam_from_head (or cam_from_headset)",
                 {.file = path.string(), .field = key});
-  m.convertTo(m, CV_64F);
-  Eigen::Matrix4d t;
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c)
-      t(r, c) = m.at<double>(r, c);
-  // NaN, a scaled or sheared rotation or a bad last row would put NaN or a wrong pose on the
-  // wire: the one rigid check of slam/core refuses them, naming the file and key.
-  return rigid_from_matrix(t, {.file = path.string(), .field = key});
+  }
+  return *t;
 }
 
 SE3 read_cam_from_head(const fs::path& path) {

@@ -10,6 +10,7 @@
 #include "slam/core/error.hpp"
 #include "slam/core/rigid.hpp"
 #include "slam/core/yaml_text.hpp"
+#include "slam/settings/opencv_matrix.hpp"
 
 namespace coloc::capture {
 namespace {
@@ -327,20 +328,9 @@ DepthColorCalibration read_calibration_text(const std::filesystem::path& path, i
              {}};
   }
   c.depth_modes = {depth};
-  cv::Mat m;
-  fs["color_from_depth"] >> m;
-  if (!m.empty()) {
-    if (m.rows != 4 || m.cols != 4)
-      throw Error("color_from_depth must be a 4x4 matrix",
-                  {.file = path.string(), .field = "color_from_depth"});
-    m.convertTo(m, CV_64F);
-    Eigen::Matrix4d pose;
-    for (int r = 0; r < 4; ++r)
-      for (int col = 0; col < 4; ++col)
-        pose(r, col) = m.at<double>(r, col);
-    c.color_from_depth =
-        rigid_from_matrix(pose, {.file = path.string(), .field = "color_from_depth"});
-  }
+  if (const auto pose = settings::read_rigid_matrix(
+          fs["color_from_depth"], {.file = path.string(), .field = "color_from_depth"}))
+    c.color_from_depth = *pose;
   return c;
 }
 

@@ -12,6 +12,7 @@
 #include "slam/core/input_file.hpp"
 #include "slam/core/rigid.hpp"
 #include "slam/core/yaml_text.hpp"
+#include "slam/settings/opencv_matrix.hpp"
 
 namespace coloc::settings {
 namespace {
@@ -83,29 +84,12 @@ class KeyReader {
     return static_cast<std::string>(node);
   }
 
-  // A rigid transform as a 4x4 !!opencv-matrix (its rotation orthonormal to 1e-4, its last row
-  // 0 0 0 1).
-  std::optional<Eigen::Matrix4d> transform(const std::string& key) {
+  // A rigid transform as a 4x4 !!opencv-matrix (read_rigid_matrix: shape checked first, then
+  // slam/core's rigid check).
+  std::optional<SE3> transform(const std::string& key) {
     const cv::FileNode node = storage_[key];
-    if (node.empty()) return std::nullopt;
-    used_.insert(key);
-    cv::Mat m;
-    try {
-      node >> m;
-    } catch (const cv::Exception&) {
-      fail(key, "expected a 4x4 !!opencv-matrix");
-    }
-    if (m.rows != 4 || m.cols != 4 || m.channels() != 1)
-      fail(key, "expected a 4x4 !!opencv-matrix, got " + std::to_string(m.rows) + "x" +
-                    std::to_string(m.cols));
-    m.convertTo(m, CV_64F);
-    Eigen::Matrix4d t;
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c)
-        t(r, c) = m.at<double>(r, c);
-    // The one rigid check of slam/core (finite, a rotation, last row 0 0 0 1).
-    if (const auto problem = rigid_problem(t)) fail(key, "not a rigid transform: " + *problem);
-    return t;
+    if (!node.empty()) used_.insert(key);
+    return read_rigid_matrix(node, {.file = path_.string(), .field = key});
   }
 
   [[noreturn]] void fail(const std::string& key, const std::string& message) const {
@@ -244,7 +228,7 @@ Settings read_settings(const std::string& text, const std::filesystem::path& pat
   s.readout_time = keys.number("Camera.readoutTime");
   if (s.readout_time && !(*s.readout_time >= 0.0 && *s.readout_time < 1.0))
     keys.fail("Camera.readoutTime", "must be in [0, 1) seconds");
-  if (const auto t = keys.transform("IMU.T_b_c1")) s.imu_from_cam = SE3::from_matrix(*t);
+  if (const auto t = keys.transform("IMU.T_b_c1")) s.imu_from_cam = *t;
   s.gyro_noise_density = keys.number("IMU.NoiseGyro");
   if (s.gyro_noise_density && !(*s.gyro_noise_density > 0.0 && *s.gyro_noise_density < 1.0))
     keys.fail("IMU.NoiseGyro", "must be in (0, 1) rad/s/sqrt(Hz)");

@@ -167,6 +167,12 @@ TEST(Settings, ImuPlacement) {
   scaled.replace(scaled.find("[0., -1."), 8, "[0., -2.");
   expect_error(write("imu_scaled.yaml", std::string(kMinimal) + scaled), "IMU.T_b_c1");
   expect_error(write("imu_number.yaml", std::string(kMinimal) + "IMU.T_b_c1: 3\n"), "IMU.T_b_c1");
+  // A shape no 4x4 has is refused before OpenCV allocates it (rows 2^32: 64 GiB, found by
+  // scripts/fuzz_yaml in a camera calibration's color_from_depth).
+  expect_error(write("imu_huge.yaml", std::string(kMinimal) +
+                                          "IMU.T_b_c1: !!opencv-matrix\n   rows: 4294967296\n"
+                                          "   cols: 4\n   dt: d\n   data: [1, 0]\n"),
+               "IMU.T_b_c1");
 }
 
 TEST(Settings, GyroNoiseFigures) {
