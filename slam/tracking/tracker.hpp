@@ -43,10 +43,12 @@ struct TrackingOptions {
   // frame) made 73 on fr1/rpy 180f where ORB-SLAM2 live makes 32-35, and every local BA window
   // grew with them (1.1 s median on the whole of fr1/rpy). Here that condition is "at least
   // min_frames_between_keyframes frames since the last keyframe", whatever the mapper is doing,
-  // so replayed, paced and live runs decide alike. 4 frames (30 Hz): fr1/rpy 180f, start frames
-  // 0-7, sequential, ORB-SLAM3 file: 34 keyframes (31-36) instead of 73 (47-84), ATE mean 16.1
-  // instead of 15.5 mm, local BA ~80 ms median instead of ~300 (docs/results/mapping-speed.md).
-  // keyframe_needs_idle_mapper restores ORB-SLAM's rule (with min_frames_between_keyframes 0).
+  // so replayed, paced and live runs decide alike. 4 frames (30 Hz), sequential fr1/rpy 180f
+  // from start frames 0-7: ORB-SLAM3 file 31-36 keyframes instead of 47-84, ATE median 16.1
+  // instead of 15.4 mm; our TUM1 file 32-36 instead of 70-90, 15.3 instead of 13.4 mm; local BA
+  // median 123 instead of 377 ms, the run 3.6x faster (docs/results/mapping-speed.md). 3 frames
+  // (37-46 keyframes) was not better: 17.0 and 13.9 mm. keyframe_needs_idle_mapper restores
+  // ORB-SLAM's rule (with min_frames_between_keyframes 0).
   int min_frames_between_keyframes = 4;
   bool keyframe_needs_idle_mapper = false;
   int close_tracked_limit = 100;   // RGB-D rule: fewer close tracked points than this ...
