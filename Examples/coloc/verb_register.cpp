@@ -43,7 +43,7 @@ struct RegisterArgs {
   int threads = 2;
   int report_keyframes = 4;
   std::string refine_mode = "terms";
-  std::string level;  // empty: "markers", or "cloud" without --markers
+  std::string level;  // empty: "markers", or "surface" without --markers
   int min_markers = 3;
   std::vector<int> only_markers, ignore_markers;
   double inlier_threshold = 0.35;
@@ -221,8 +221,8 @@ void register_markerless(const RegisterArgs& a) {
         "without --markers, the map is registered by its dense cloud: give --scan and "
         "--sequence (the recording the map was built from)",
         {.field = "--markers"});
-  if (a.level != "cloud")
-    throw Error("level " + a.level + " needs --markers (without them the level is cloud)",
+  if (a.level != "cloud" && a.level != "surface")
+    throw Error("level " + a.level + " needs --markers (without them: cloud or surface)",
                 {.field = "--level"});
   { const AtomicFile probe(a.out); }
   const std::optional<SE3> initial =
@@ -239,21 +239,12 @@ void register_markerless(const RegisterArgs& a) {
   const SlamInputs recording = load_slam_inputs(a.sequence, {});
   align::MarkerlessOptions options;
   options.global.gravity = a.gravity;
+  options.surface = a.level == "surface";
   const align::MarkerlessResult r =
       align::register_map_markerless(loaded.map, *recording.sequence,
                                      slam::mapdb::camera_of(loaded, a.map), scan, options, initial);
   const align::GlobalRegistrationReport& g = r.global;
-  const Json summary = {{"level", "cloud"},
-                        {"scan_from_slam", json_row_major(r.scan_from_slam.to_se3().matrix())},
-                        {"fitness", g.fitness},
-                        {"inlier_rmse_m", g.rmse},
-                        {"overlap", g.overlap},
-                        {"runner_up_fitness", g.runner_up},
-                        {"feature_matches", g.matches},
-                        {"from_initial", g.from_initial},
-                        {"map_cloud_points", r.map_cloud_points},
-                        {"keyframes_fused", r.map_cloud.frames_used},
-                        {"ms", g.ms}};
+  const Json summary = Json::parse(align::markerless_json(r));
   slam::mapdb::MapMetadata metadata = loaded.metadata;
   metadata.frame_name = "scan";
   metadata.frame_from_slam = r.scan_from_slam;
@@ -267,16 +258,28 @@ void register_markerless(const RegisterArgs& a) {
     return;
   }
   std::printf(
-      "registered (cloud, no markers) -> %s\n  map cloud: %zu points from %zu keyframes; "
+      "registered (%s, no markers) -> %s\n  map cloud: %zu points from %zu keyframes; "
       "fitness %.3f, inlier RMSE %.1f mm, overlap %.3f, runner-up fitness %.3f (%s, %.1f s)\n",
-      a.out.c_str(), r.map_cloud_points, r.map_cloud.frames_used, g.fitness, 1e3 * g.rmse,
-      g.overlap, g.runner_up, g.from_initial ? "from --initial" : "global search", g.ms / 1e3);
+      r.surface ? "surface" : "cloud", a.out.c_str(), r.map_cloud_points, r.map_cloud.frames_used,
+      g.fitness, 1e3 * g.rmse, g.overlap, g.runner_up,
+      g.from_initial ? "from --initial" : "global search", g.ms / 1e3);
+  if (r.surface) {
+    const align::SurfaceBaRound& first = r.surface->rounds.front();
+    const align::SurfaceBaRound& last = r.surface->rounds.back();
+    std::printf(
+        "  surface BA: %zu keyframes, %zu depth samples; median distance to the scan %.1f -> "
+        "%.1f mm; reprojection RMS %.2f -> %.2f px (%.1f s)\n",
+        r.surface->keyframes, r.surface->depth_samples, 1e3 * first.median_before_m,
+        1e3 * last.median_after_m, r.surface->initial_point_rms_px, r.surface->final_point_rms_px,
+        r.ms_surface / 1e3);
+  }
 }
 
 void register_verb(const RegisterArgs& a) {
   if (a.markers.empty()) return register_markerless(a);
-  if (a.level == "cloud")
-    throw Error("level cloud registers without markers: leave --markers out", {.field = "--level"});
+  if (a.level == "cloud" || a.level == "surface")
+    throw Error("level " + a.level + " registers without markers: leave --markers out",
+                {.field = "--level"});
   if (a.level == "pointcloud" && a.scan.empty())
     throw Error("level pointcloud needs the scan's points", {.field = "--scan"});
   const align::RegisterOptions options = options_of(a);
@@ -359,10 +362,12 @@ void add_register_verb(CLI::App& app) {
                  "Marker map of the scan (coloc scan-markers); without it, the map's dense cloud "
                  "is registered to the scan (--scan, --sequence)");  // checked by its reader
   cmd.add_option("--out", a->out, "Registered map database to write")->required();
-  cmd.add_option("--level", a->level,
-                 "With markers: rough (markers' rigid fit), markers (+ marker BA) or pointcloud "
-                 "(+ refinement); without: cloud (the map's dense cloud onto the scan, rigid)")
-      ->check(CLI::IsMember({"rough", "markers", "pointcloud", "cloud"}));
+  cmd.add_option(
+         "--level", a->level,
+         "With markers: rough (markers' rigid fit), markers (+ marker BA) or pointcloud "
+         "(+ refinement); without: cloud (the map's dense cloud onto the scan, rigid) or surface "
+         "(+ the BA that bends the map onto the scan's surface; the default)")
+      ->check(CLI::IsMember({"rough", "markers", "pointcloud", "cloud", "surface"}));
   cmd.add_option("--scan", a->scan, "The scan (E57, PLY or PCD), for levels pointcloud and cloud")
       ->check(CLI::ExistingFile);
   cmd.add_option("--initial", a->initial,
@@ -410,7 +415,7 @@ void add_register_verb(CLI::App& app) {
   cmd.add_flag("--json", a->json, "Machine-readable summary on stdout");
   cmd.callback([a] {
     // The level's default follows the input: markers, or the dense cloud without them.
-    if (a->level.empty()) a->level = a->markers.empty() ? "cloud" : "markers";
+    if (a->level.empty()) a->level = a->markers.empty() ? "surface" : "markers";
     register_verb(*a);
   });
 }

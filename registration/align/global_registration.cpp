@@ -1,7 +1,6 @@
 #include "registration/align/global_registration.hpp"
 
 #include <pcl/features/fpfh.h>
-#include <pcl/features/normal_3d.h>
 #include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/point_types.h>
 #include <pcl/search/kdtree.h>
@@ -14,7 +13,7 @@
 #include <sstream>
 #include <unordered_map>
 
-#include "registration/align/scan_cloud.hpp"
+#include "registration/align/pcl_normals.hpp"
 #include "slam/core/align.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
@@ -22,46 +21,10 @@
 namespace coloc::registration::align {
 namespace {
 
-using Cloud = pcl::PointCloud<pcl::PointNormal>;
+using Cloud = NormalCloud;
 using Features = pcl::PointCloud<pcl::FPFHSignature33>;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
-
-// The cloud on a voxel grid of `voxel` metres, with normals from neighbours within
-// `normal_radius` metres (oriented towards +z where ambiguous, as a scan's floor and a map's).
-Cloud::Ptr thinned_with_normals(const render::PointCloud& in, double voxel, double normal_radius) {
-  ScanCloudOptions o;
-  o.voxel_size = voxel;
-  const render::PointCloud thin = voxel_downsample(in, o);
-  auto points = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
-  points->reserve(thin.points.size());
-  for (const Eigen::Vector3f& p : thin.points)
-    points->push_back({p.x(), p.y(), p.z()});
-  pcl::NormalEstimation<pcl::PointXYZ, pcl::Normal> estimation;
-  auto tree = std::make_shared<pcl::search::KdTree<pcl::PointXYZ>>();
-  estimation.setSearchMethod(tree);
-  estimation.setRadiusSearch(normal_radius);
-  estimation.setViewPoint(0.0f, 0.0f, 1e6f);
-  estimation.setInputCloud(points);
-  pcl::PointCloud<pcl::Normal> normals;
-  estimation.compute(normals);
-  auto out = std::make_shared<Cloud>();
-  out->reserve(points->size());
-  for (std::size_t i = 0; i < points->size(); ++i) {
-    const pcl::Normal& n = normals[i];
-    if (!std::isfinite(n.normal_x)) continue;  // too few neighbours for a plane
-    pcl::PointNormal p;
-    p.x = (*points)[i].x;
-    p.y = (*points)[i].y;
-    p.z = (*points)[i].z;
-    p.normal_x = n.normal_x;
-    p.normal_y = n.normal_y;
-    p.normal_z = n.normal_z;
-    p.curvature = std::isfinite(n.curvature) ? n.curvature : 0.0f;
-    out->push_back(p);
-  }
-  return out;
-}
 
 Features::Ptr fpfh(const Cloud::Ptr& cloud, double radius) {
   pcl::FPFHEstimation<pcl::PointNormal, pcl::PointNormal, pcl::FPFHSignature33> estimation;

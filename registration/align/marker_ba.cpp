@@ -9,6 +9,7 @@
 #include <optional>
 #include <unordered_map>
 
+#include "registration/align/ba_terms.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/mapping/ba_window.hpp"
@@ -40,21 +41,6 @@ struct MarkerTerms {
   std::vector<std::size_t> keyframes;                   // per marker
   std::vector<CornerObservation> observations;
 };
-
-// The state Ceres changes: pose parameter blocks and the points (in the window's problem).
-struct State {
-  std::vector<double> poses;  // 7 per pose
-  std::vector<Eigen::Vector3d> points;
-};
-
-State state_of(const optim::BundleProblem& p) {
-  State s;
-  s.poses.resize(7 * p.poses.size());
-  for (std::size_t i = 0; i < p.poses.size(); ++i)
-    optim::pose_to_array(p.poses[i].cam_from_world, &s.poses[7 * i]);
-  s.points = p.points;
-  return s;
-}
 
 MarkerTerms marker_terms(const slam::map::Map& map, const slam::mapping::BaWindow& w,
                          const ScanCorners& scan, const Camera& camera,
@@ -90,42 +76,15 @@ struct Flags {
   std::vector<std::uint8_t> rejected;  // per marker
 };
 
-int solve(const optim::BundleProblem& problem, State& s, const optim::Intrinsics& k,
-          const MarkerTerms& markers, const Flags& flags, const MarkerBaOptions& o) {
-  ceres::Problem::Options popts;
-  popts.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem cp(popts);
-  optim::PoseManifold manifold;
-  std::vector<std::uint8_t> added(problem.poses.size(), 0);
-  auto pose_block = [&](std::uint32_t i) {
-    double* block = &s.poses[7 * static_cast<std::size_t>(i)];
-    if (!added[i]) {
-      added[i] = 1;
-      cp.AddParameterBlock(block, 7, &manifold);
-      if (problem.poses[i].fixed) cp.SetParameterBlockConstant(block);
-    }
-    return block;
-  };
+// The marker corners (markers not rejected) and the scan points as terms on the poses.
+void add_marker_terms(ceres::Problem& cp, const optim::Intrinsics& k, const MarkerTerms& markers,
+                      const std::vector<std::uint8_t>& rejected, const MarkerBaOptions& o,
+                      PoseBlocks& pose_block) {
   const double delta = std::sqrt(o.huber_chi2);
-  for (std::size_t i = 0; i < problem.observations.size(); ++i) {
-    if (flags.skip[i]) continue;
-    const auto& ob = problem.observations[i];
-    const double inv_sigma = std::sqrt(ob.inv_sigma2);
-    double* pose = pose_block(ob.pose);
-    double* point = s.points[ob.point].data();
-    if (ob.u_right >= 0.0) {
-      cp.AddResidualBlock(
-          new optim::StereoReprojectionCost(k, {ob.pixel.x(), ob.pixel.y(), ob.u_right}, inv_sigma),
-          new ceres::HuberLoss(delta), pose, point);
-    } else {
-      cp.AddResidualBlock(new optim::MonoReprojectionCost(k, ob.pixel, inv_sigma),
-                          new ceres::HuberLoss(delta), pose, point);
-    }
-  }
   const double marker_inv_sigma = std::sqrt(o.marker_weight) / o.marker_sigma_px;
   if (marker_inv_sigma > 0.0) {
     for (const CornerObservation& c : markers.observations) {
-      if (flags.rejected[c.marker]) continue;
+      if (rejected[c.marker]) continue;
       cp.AddResidualBlock(
           new MarkerCornerCost(k, c.pixel,
                                markers.corners[c.marker][static_cast<std::size_t>(c.corner)],
@@ -138,24 +97,25 @@ int solve(const optim::BundleProblem& problem, State& s, const optim::Intrinsics
     cp.AddResidualBlock(new MarkerCornerCost(k, t.pixel, t.world, scan_inv_sigma),
                         new ceres::HuberLoss(delta), pose_block(t.pose));
   }
-  if (cp.NumResidualBlocks() == 0) return 0;
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::SPARSE_SCHUR;
-  so.max_num_iterations = o.iterations;
-  so.num_threads = o.threads;
-  so.logging_type = ceres::SILENT;
-  ceres::Solver::Summary summary;
-  ceres::Solve(so, &cp, &summary);
-  return static_cast<int>(summary.iterations.size());
+}
+
+int solve(const optim::BundleProblem& problem, BaState& s, const optim::Intrinsics& k,
+          const MarkerTerms& markers, const Flags& flags, const MarkerBaOptions& o) {
+  ceres::Problem cp(ba_problem_options());
+  PoseBlocks pose_block(cp, problem, s);
+  const double delta = std::sqrt(o.huber_chi2);
+  add_reprojection_terms(cp, problem, k, flags.skip, delta, s, pose_block);
+  add_marker_terms(cp, k, markers, flags.rejected, o, pose_block);
+  return solve_ba(cp, o.iterations, o.threads);
 }
 
 // Per marker: RMS pixel distance between detected and projected corners (behind the camera
 // counts as 1000 px).
-std::vector<double> marker_rms(const State& s, const optim::Intrinsics& k, const MarkerTerms& m) {
+std::vector<double> marker_rms(const BaState& s, const optim::Intrinsics& k, const MarkerTerms& m) {
   std::vector<double> sum(m.ids.size(), 0.0);
   std::vector<std::size_t> n(m.ids.size(), 0);
   for (const CornerObservation& c : m.observations) {
-    const SE3 pose = optim::pose_from_array(&s.poses[7 * static_cast<std::size_t>(c.pose)]);
+    const SE3 pose = s.cam_from_world(c.pose);
     Eigen::Vector2d r;
     const bool ok = optim::mono_residual(
         k, pose * m.corners[c.marker][static_cast<std::size_t>(c.corner)], c.pixel, r, nullptr);
@@ -181,59 +141,6 @@ double pooled_marker_rms(const std::vector<double>& rms, const MarkerTerms& m,
   return n > 0.0 ? std::sqrt(sum / n) : 0.0;
 }
 
-// Chi2 classification of the map-point observations (as slam/optim); also the pixel RMS of the
-// observations not flagged.
-std::vector<std::uint8_t> classify(const optim::BundleProblem& p, const State& s,
-                                   const optim::Intrinsics& k, const MarkerBaOptions& o,
-                                   double* rms_px) {
-  std::vector<std::uint8_t> out(p.observations.size(), 0);
-  double sum = 0.0;
-  std::size_t n = 0;
-  for (std::size_t i = 0; i < p.observations.size(); ++i) {
-    const auto& ob = p.observations[i];
-    const SE3 pose = optim::pose_from_array(&s.poses[7 * static_cast<std::size_t>(ob.pose)]);
-    const Eigen::Vector3d pc = pose * s.points[ob.point];
-    double chi2 = -1.0, px2 = 0.0;
-    if (ob.u_right >= 0.0) {
-      Eigen::Vector3d r;
-      if (optim::stereo_residual(k, pc, {ob.pixel.x(), ob.pixel.y(), ob.u_right}, r, nullptr)) {
-        chi2 = r.squaredNorm() * ob.inv_sigma2;
-        px2 = r.head<2>().squaredNorm();
-      }
-      out[i] = (chi2 < 0.0 || chi2 > o.chi2_stereo) ? 1 : 0;
-    } else {
-      Eigen::Vector2d r;
-      if (optim::mono_residual(k, pc, ob.pixel, r, nullptr)) {
-        chi2 = r.squaredNorm() * ob.inv_sigma2;
-        px2 = r.squaredNorm();
-      }
-      out[i] = (chi2 < 0.0 || chi2 > o.chi2_mono) ? 1 : 0;
-    }
-    if (!out[i]) {
-      sum += px2;
-      ++n;
-    }
-  }
-  if (rms_px) *rms_px = n ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
-  return out;
-}
-
-double point_rms(const optim::BundleProblem& p, const State& s, const optim::Intrinsics& k,
-                 const std::vector<std::uint8_t>& skip) {
-  double sum = 0.0;
-  std::size_t n = 0;
-  for (std::size_t i = 0; i < p.observations.size(); ++i) {
-    if (skip[i]) continue;
-    const auto& ob = p.observations[i];
-    const SE3 pose = optim::pose_from_array(&s.poses[7 * static_cast<std::size_t>(ob.pose)]);
-    Eigen::Vector2d r;
-    if (!optim::mono_residual(k, pose * s.points[ob.point], ob.pixel, r, nullptr)) continue;
-    sum += r.squaredNorm();
-    ++n;
-  }
-  return n ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
-}
-
 // Largest RMS (pixels) among the markers not rejected, `except` left out too.
 double worst_kept(const std::vector<double>& rms, const std::vector<std::uint8_t>& rejected,
                   std::size_t except) {
@@ -251,19 +158,19 @@ double worst_kept(const std::vector<double>& rms, const std::vector<std::uint8_t
 // disagreement; leaving one out at a time tells them apart. Rejects it and puts its
 // leave-one-out solution into `s`. False when all kept markers are within the gate, no
 // leave-one-out explains the disagreement, or two markers would remain.
-bool find_culprit(const optim::BundleProblem& problem, const State& initial,
+bool find_culprit(const optim::BundleProblem& problem, const BaState& initial,
                   const optim::Intrinsics& k, const MarkerTerms& markers, const MarkerBaOptions& o,
-                  Flags& flags, State& s, MarkerBaReport& report) {
+                  Flags& flags, BaState& s, MarkerBaReport& report) {
   const std::vector<double> rms = marker_rms(s, k, markers);
   const auto kept =
       static_cast<std::size_t>(std::count(flags.rejected.begin(), flags.rejected.end(), 0));
   if (worst_kept(rms, flags.rejected, rms.size()) <= o.marker_gate_px || kept <= 2) return false;
   std::optional<std::size_t> culprit;
   double best_worst = 0.0;
-  State best_state;
+  BaState best_state;
   for (std::size_t c = 0; c < markers.ids.size(); ++c) {
     if (flags.rejected[c]) continue;
-    State trial = initial;  // no bend left behind by the marker left out
+    BaState trial = initial;  // no bend left behind by the marker left out
     flags.rejected[c] = 1;
     report.iterations += solve(problem, trial, k, markers, flags, o);
     ++report.rounds;
@@ -368,13 +275,13 @@ MarkerBaReport marker_bundle_adjustment(slam::map::Map& map, const ScanCorners& 
   }
   const optim::Intrinsics& k = w.intrinsics;
 
-  const State initial = state_of(w.problem);
-  State s = initial;
+  const BaState initial = BaState::of(w.problem);
+  BaState s = initial;
   Flags flags{std::vector<std::uint8_t>(w.problem.observations.size(), 0),
               std::vector<std::uint8_t>(markers.ids.size(), 0)};
   MarkerBaReport report;
   const std::vector<double> rms0 = marker_rms(initial, k, markers);
-  report.initial_point_rms_px = point_rms(w.problem, initial, k, flags.skip);
+  report.initial_point_rms_px = reprojection_rms_px(w.problem, initial, k, flags.skip);
   report.initial_marker_rms_px = pooled_marker_rms(rms0, markers, flags.rejected);
 
   report.iterations += solve(w.problem, s, k, markers, flags, o);
@@ -383,10 +290,10 @@ MarkerBaReport marker_bundle_adjustment(slam::map::Map& map, const ScanCorners& 
     if (!find_culprit(w.problem, initial, k, markers, o, flags, s, report)) break;
   }
   // Drop the map-point outliers and finish without them.
-  flags.skip = classify(w.problem, s, k, o, nullptr);
+  flags.skip = classify_observations(w.problem, s, k, o.chi2_stereo, o.chi2_mono, nullptr);
   report.iterations += solve(w.problem, s, k, markers, flags, o);
   ++report.rounds;
-  report.final_point_rms_px = point_rms(w.problem, s, k, flags.skip);
+  report.final_point_rms_px = reprojection_rms_px(w.problem, s, k, flags.skip);
   const std::vector<double> rms1 = marker_rms(s, k, markers);
   report.initial_marker_rms_px = pooled_marker_rms(rms0, markers, flags.rejected);
   report.final_marker_rms_px = pooled_marker_rms(rms1, markers, flags.rejected);
@@ -397,12 +304,7 @@ MarkerBaReport marker_bundle_adjustment(slam::map::Map& map, const ScanCorners& 
   std::sort(report.markers.begin(), report.markers.end(),
             [](const MarkerBaMarker& a, const MarkerBaMarker& b) { return a.id < b.id; });
 
-  for (std::size_t i = 0; i < w.problem.poses.size(); ++i)
-    w.problem.poses[i].cam_from_world = optim::pose_from_array(&s.poses[7 * i]);
-  w.problem.points = s.points;
-  optim::BundleResult result;
-  result.outlier = flags.skip;
-  slam::mapping::apply_window(map, w, result);
+  write_back(map, w, s, flags.skip);
 
   report.keyframes = w.pose_ids.size();
   report.points = w.point_ids.size();
@@ -411,6 +313,16 @@ MarkerBaReport marker_bundle_adjustment(slam::map::Map& map, const ScanCorners& 
   report.outliers = static_cast<std::size_t>(std::count(flags.skip.begin(), flags.skip.end(), 1));
   report.ms = watch.elapsed_ms();
   return report;
+}
+
+std::size_t add_marker_corner_terms(ceres::Problem& problem, const slam::map::Map& map,
+                                    const slam::mapping::BaWindow& window, const ScanCorners& scan,
+                                    const Camera& camera, const std::vector<int>& use_ids,
+                                    const MarkerBaOptions& options, PoseBlocks& poses) {
+  const MarkerTerms markers = marker_terms(map, window, scan, camera, use_ids);
+  add_marker_terms(problem, window.intrinsics, markers,
+                   std::vector<std::uint8_t>(markers.ids.size(), 0), options, poses);
+  return markers.observations.size();
 }
 
 }  // namespace coloc::registration::align

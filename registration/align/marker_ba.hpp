@@ -34,6 +34,7 @@
 #include <unordered_set>
 #include <vector>
 
+#include "registration/align/ba_terms.hpp"
 #include "slam/core/camera.hpp"
 #include "slam/map/map.hpp"
 #include "slam/optim/reprojection.hpp"
@@ -105,6 +106,14 @@ MarkerBaReport marker_bundle_adjustment(slam::map::Map& map, const ScanCorners& 
                                         const MarkerBaOptions& options = {},
                                         const std::unordered_set<KeyframeId>& fixed_keyframes = {},
                                         const std::vector<ScanPointObservation>& scan_points = {});
+
+// The corner terms of the markers in `scan` (restricted to `use_ids` unless empty) seen by the
+// window's keyframes, added to another global BA (surface_ba.hpp: markers and surface
+// together); no marker is judged or rejected here. Returns the corner terms added.
+std::size_t add_marker_corner_terms(ceres::Problem& problem, const slam::map::Map& map,
+                                    const slam::mapping::BaWindow& window, const ScanCorners& scan,
+                                    const Camera& camera, const std::vector<int>& use_ids,
+                                    const MarkerBaOptions& options, PoseBlocks& poses);
 
 // The marker term: residual = inv_sigma * (m_kj - Pi(C_k, M_j)) with M_j fixed; analytic
 // Jacobian in the pose manifold's lifted form (slam/optim/bundle_adjustment.hpp). Exposed for

@@ -1,25 +1,90 @@
 #include "registration/align/markerless.hpp"
 
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
 #include "registration/align/transform.hpp"
+#include "slam/core/error.hpp"
+#include "slam/core/timing.hpp"
+#include "slam/core/trajectory.hpp"
 
 namespace coloc::registration::align {
 
-void MarkerlessOptions::check() const {
-  global.check();
-  map_cloud.check();
-}
+namespace {
 
-render::PointCloud map_dense_cloud(const slam::map::Map& map, const dataset::Sequence& sequence,
-                                   const Camera& camera, const SequenceCloudOptions& options,
-                                   SequenceCloudStats* stats) {
+// The map's keyframes as a trajectory (world_from_cam), in time order.
+Trajectory keyframe_trajectory(const slam::map::Map& map) {
   Trajectory keyframes;
   for (const auto& [id, kf] : map.keyframes())
     keyframes.push_back({kf.frame.timestamp, kf.cam_from_world().inverse()});
   std::sort(keyframes.begin(), keyframes.end(),
             [](const auto& a, const auto& b) { return a.timestamp < b.timestamp; });
+  return keyframes;
+}
+
+}  // namespace
+
+void DepthSampleOptions::check() const {
+  if (stride_px < 1) throw Error("must be >= 1", {.field = "stride_px"});
+  if (!(min_depth >= 0.0 && max_depth > min_depth && std::isfinite(max_depth)))
+    throw Error("must satisfy 0 <= min_depth < max_depth", {.field = "max_depth"});
+}
+
+void MarkerlessOptions::check() const {
+  global.check();
+  map_cloud.check();
+  scan_surface.check();
+  depth_samples.check();
+  surface_ba.check();
+}
+
+render::PointCloud map_dense_cloud(const slam::map::Map& map, const dataset::Sequence& sequence,
+                                   const Camera& camera, const SequenceCloudOptions& options,
+                                   SequenceCloudStats* stats) {
   SequenceCloudOptions o = options;
   o.max_pose_dt = 1e-3;  // a keyframe is one of the sequence's frames
-  return fuse_posed_frames(sequence, camera, keyframes, o, stats);
+  return fuse_posed_frames(sequence, camera, keyframe_trajectory(map), o, stats);
+}
+
+KeyframeDepthSamples keyframe_depth_samples(const slam::map::Map& map,
+                                            const dataset::Sequence& sequence, const Camera& camera,
+                                            const DepthSampleOptions& o) {
+  o.check();
+  Trajectory frames;
+  for (std::size_t i = 0; i < sequence.size(); ++i)
+    frames.push_back({sequence.timestamp(i), SE3()});
+  std::vector<std::pair<KeyframeId, double>> keyframes;  // by time
+  Trajectory times;
+  for (const auto& [id, kf] : map.keyframes()) {
+    keyframes.emplace_back(id, kf.frame.timestamp);
+  }
+  std::sort(keyframes.begin(), keyframes.end(),
+            [](const auto& a, const auto& b) { return a.second < b.second; });
+  for (const auto& [id, t] : keyframes)
+    times.push_back({t, SE3()});
+  KeyframeDepthSamples out;
+  for (const auto& [kf, frame_index] : associate_by_time(times, frames, 1e-3)) {
+    dataset::Frame frame;
+    try {
+      frame = sequence.frame(frame_index);
+    } catch (const Error& e) {
+      spdlog::warn("keyframe at t={:.3f}: no depth samples: {}", keyframes[kf].second, e.what());
+      continue;
+    }
+    std::vector<Eigen::Vector3d>& points = out[keyframes[kf].first];
+    const int half = o.stride_px / 2;
+    for (int v = half; v < frame.depth.rows; v += o.stride_px) {
+      const float* depth = frame.depth.ptr<float>(v);
+      for (int u = half; u < frame.depth.cols; u += o.stride_px) {
+        const double d = depth[u];
+        if (d >= o.min_depth && d <= o.max_depth) points.push_back(backproject(camera, {u, v}, d));
+      }
+    }
+  }
+  return out;
 }
 
 MarkerlessResult register_map_markerless(slam::map::Map& map, const dataset::Sequence& sequence,
@@ -28,13 +93,68 @@ MarkerlessResult register_map_markerless(slam::map::Map& map, const dataset::Seq
                                          const std::optional<SE3>& initial) {
   options.check();
   MarkerlessResult r;
+  Stopwatch watch;
   const render::PointCloud dense =
       map_dense_cloud(map, sequence, camera, options.map_cloud, &r.map_cloud);
   r.map_cloud_points = dense.points.size();
   r.global = register_clouds(dense, scan_cloud, options.global, initial);
   r.scan_from_slam = Sim3(r.global.scan_from_map);
   transform_map(map, r.scan_from_slam);
+  r.ms_rigid = watch.elapsed_ms();
+  if (!options.surface) return r;
+
+  watch.restart();
+  const ScanSurface surface(scan_cloud, options.scan_surface);
+  r.surface_points = surface.size();
+  const KeyframeDepthSamples samples =
+      keyframe_depth_samples(map, sequence, camera, options.depth_samples);
+  r.surface = surface_bundle_adjustment(map, surface, camera, samples, options.surface_ba);
+  r.ms_surface = watch.elapsed_ms();
   return r;
+}
+
+std::string markerless_json(const MarkerlessResult& r) {
+  using Json = nlohmann::ordered_json;
+  const GlobalRegistrationReport& g = r.global;
+  Json transform = Json::array();
+  const Eigen::Matrix4d m = r.scan_from_slam.to_se3().matrix();
+  for (int row = 0; row < 4; ++row) {
+    for (int col = 0; col < 4; ++col)
+      transform.push_back(m(row, col));
+  }
+  Json j = {{"level", r.surface ? "surface" : "cloud"},
+            {"scan_from_slam", transform},
+            {"fitness", g.fitness},
+            {"inlier_rmse_m", g.rmse},
+            {"overlap", g.overlap},
+            {"runner_up_fitness", g.runner_up},
+            {"feature_matches", g.matches},
+            {"from_initial", g.from_initial},
+            {"map_cloud_points", r.map_cloud_points},
+            {"keyframes_fused", r.map_cloud.frames_used},
+            {"ms", g.ms},
+            {"ms_rigid", r.ms_rigid}};
+  if (r.surface) {
+    const SurfaceBaReport& b = *r.surface;
+    Json rounds = Json::array();
+    for (const SurfaceBaRound& round : b.rounds) {
+      rounds.push_back({{"gate_m", round.gate_m},
+                        {"point_terms", round.point_terms},
+                        {"depth_terms", round.depth_terms},
+                        {"median_distance_m", {round.median_before_m, round.median_after_m}},
+                        {"iterations", round.iterations}});
+    }
+    j["surface"] = {{"scan_surface_points", r.surface_points},
+                    {"keyframes", b.keyframes},
+                    {"points", b.points},
+                    {"observations", b.observations},
+                    {"depth_samples", b.depth_samples},
+                    {"outliers", b.outliers},
+                    {"point_rms_px", {b.initial_point_rms_px, b.final_point_rms_px}},
+                    {"rounds", rounds},
+                    {"ms", r.ms_surface}};
+  }
+  return j.dump();
 }
 
 }  // namespace coloc::registration::align

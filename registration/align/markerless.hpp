@@ -1,21 +1,35 @@
 #pragma once
-// A SLAM map registered to a scan without markers (`coloc register` without --markers): the
-// map's dense cloud, each keyframe's depth image from the recording the map was built from,
-// placed at the keyframe's pose, is registered to the scan's points (global_registration.hpp),
-// and the whole map is moved by the result. A rigid transform: the map's own drift stays (the
-// marker levels bend the map onto the scan; without markers that is not done yet).
+// A SLAM map registered to a scan without markers (`coloc register` without --markers):
+// 1. rigid: the map's dense cloud, each keyframe's depth image from the recording the map was
+//    built from, placed at the keyframe's pose, is registered to the scan's points
+//    (global_registration.hpp), and the whole map is moved by the result;
+// 2. surface (unless `options.surface` is off): the map's drift is bent out by the global BA
+//    against the scan's surface (surface_ba.hpp), with a grid of each keyframe's depth pixels
+//    as its pose's terms.
 #include <optional>
+#include <string>
 
 #include "registration/align/global_registration.hpp"
 #include "registration/align/sequence_cloud.hpp"
+#include "registration/align/surface_ba.hpp"
 #include "slam/core/sim3.hpp"
 #include "slam/map/map.hpp"
 
 namespace coloc::registration::align {
 
+struct DepthSampleOptions {
+  int stride_px = 16;                       // one depth pixel per stride x stride block
+  double min_depth = 0.2, max_depth = 4.0;  // metres
+  void check() const;
+};
+
 struct MarkerlessOptions {
   GlobalRegistrationOptions global;
   SequenceCloudOptions map_cloud{.every = 1, .voxel_size = 0.02};
+  bool surface = true;  // the surface BA after the rigid registration
+  ScanSurfaceOptions scan_surface;
+  DepthSampleOptions depth_samples;
+  SurfaceBaOptions surface_ba;
   void check() const;
 };
 
@@ -23,7 +37,10 @@ struct MarkerlessResult {
   GlobalRegistrationReport global;
   SequenceCloudStats map_cloud;
   std::size_t map_cloud_points = 0;
-  Sim3 scan_from_slam;
+  Sim3 scan_from_slam;  // the rigid part (the surface BA bends the map further)
+  std::optional<SurfaceBaReport> surface;
+  std::size_t surface_points = 0;  // the scan's surface grid
+  double ms_rigid = 0.0, ms_surface = 0.0;
 };
 
 // The map's keyframes, fused from `sequence` (the recording that built the map) at their poses.
@@ -31,11 +48,21 @@ render::PointCloud map_dense_cloud(const slam::map::Map& map, const dataset::Seq
                                    const Camera& camera, const SequenceCloudOptions& options,
                                    SequenceCloudStats* stats = nullptr);
 
+// A grid of each keyframe's depth pixels in its camera frame, read from `sequence`; keyframes
+// whose frame is missing or unreadable get none.
+KeyframeDepthSamples keyframe_depth_samples(const slam::map::Map& map,
+                                            const dataset::Sequence& sequence, const Camera& camera,
+                                            const DepthSampleOptions& options = {});
+
 // Registers `map` in place onto `scan_cloud`. `initial` (scan_from_slam) skips the global
 // search. Throws coloc::Error as register_clouds does (field "registration").
 MarkerlessResult register_map_markerless(slam::map::Map& map, const dataset::Sequence& sequence,
                                          const Camera& camera, const render::PointCloud& scan_cloud,
                                          const MarkerlessOptions& options = {},
                                          const std::optional<SE3>& initial = std::nullopt);
+
+// The result as one JSON document (level "cloud" or "surface", transform, verdict figures, the
+// surface BA's rounds, times): what `coloc register` stores in the map and prints with --json.
+std::string markerless_json(const MarkerlessResult& result);
 
 }  // namespace coloc::registration::align

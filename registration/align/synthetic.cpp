@@ -1,5 +1,6 @@
 #include "registration/align/synthetic.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -212,6 +213,57 @@ double keyframe_centre_rms(const SyntheticRegistration& scene, const slam::map::
     ++n;
   }
   return n ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
+}
+
+render::PointCloud synthetic_scan_surface(const SyntheticRegistration& scene, double patch_size,
+                                          double spacing, std::uint64_t seed) {
+  if (!(spacing > 0.0 && patch_size >= spacing))
+    throw Error("needs 0 < spacing <= patch_size", {.field = "spacing"});
+  Rng rng(seed);
+  std::vector<MapPointId> ids;
+  for (const auto& [id, p] : scene.true_points)
+    ids.push_back(id);
+  std::sort(ids.begin(), ids.end());  // deterministic
+  render::PointCloud cloud;
+  cloud.splat_size = static_cast<float>(spacing);
+  const int steps = static_cast<int>(std::lround(patch_size / spacing));
+  for (MapPointId id : ids) {
+    // Facing -y (the walk), turned about z and x by up to 60 degrees.
+    const SO3 turn = SO3::exp(
+        Eigen::Vector3d(uniform(rng, -60.0, 60.0) * kDeg, 0.0, uniform(rng, -60.0, 60.0) * kDeg));
+    const Eigen::Vector3d a = turn * Eigen::Vector3d::UnitX();
+    const Eigen::Vector3d b = turn * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d& c = scene.true_points.at(id);
+    for (int i = 0; i <= steps; ++i) {
+      for (int j = 0; j <= steps; ++j) {
+        const Eigen::Vector3d p =
+            c + (i * spacing - 0.5 * patch_size) * a + (j * spacing - 0.5 * patch_size) * b;
+        cloud.points.push_back(p.cast<float>());
+        cloud.colours.push_back({128, 128, 128});
+      }
+    }
+  }
+  return cloud;
+}
+
+KeyframeDepthSamples synthetic_depth_samples(const SyntheticRegistration& scene,
+                                             const render::PointCloud& scan,
+                                             std::size_t per_keyframe) {
+  KeyframeDepthSamples out;
+  for (const auto& [id, cam_from_scan] : scene.true_cam_from_scan) {
+    std::vector<Eigen::Vector3d> seen;
+    for (const Eigen::Vector3f& pf : scan.points) {
+      const Eigen::Vector3d p = cam_from_scan * pf.cast<double>();
+      if (p.z() < 0.3 || p.z() > 6.0) continue;
+      if (in_image(scene.camera.project(p), 0.0)) seen.push_back(p);
+    }
+    std::vector<Eigen::Vector3d>& samples = out[id];
+    const std::size_t step =
+        std::max<std::size_t>(1, seen.size() / std::max<std::size_t>(1, per_keyframe));
+    for (std::size_t i = 0; i < seen.size(); i += step)
+      samples.push_back(seen[i]);
+  }
+  return out;
 }
 
 }  // namespace coloc::registration::align

@@ -14,6 +14,8 @@
 #include <unordered_map>
 
 #include "markers/marker_map.hpp"
+#include "registration/align/surface_ba.hpp"
+#include "registration/render/scene.hpp"
 #include "slam/core/camera.hpp"
 #include "slam/core/se3.hpp"
 #include "slam/frame/frame.hpp"
@@ -57,5 +59,19 @@ Eigen::Vector3d drift_point(const SyntheticRegistrationOptions& options, const E
 // RMS distance (metres) between the map's keyframe centres and the true ones, in the frame the
 // map is in now (no alignment): the co-location error once the map is registered.
 double keyframe_centre_rms(const SyntheticRegistration& scene, const slam::map::Map& map);
+
+// A scan of the scene for the surface BA: a small square patch (`patch_size` metres, points
+// `spacing` apart) around every true map point, each turned by a seeded angle of up to 60
+// degrees from facing the walk, so that the patches' normals constrain every direction.
+render::PointCloud synthetic_scan_surface(const SyntheticRegistration& scene,
+                                          double patch_size = 0.12, double spacing = 0.01,
+                                          std::uint64_t seed = 1);
+
+// What each keyframe's depth image would hold of that scan: the patch points in front of it and
+// within its image, in its TRUE camera frame (the depth measures the real geometry), at most
+// `per_keyframe`, spread over the patches.
+KeyframeDepthSamples synthetic_depth_samples(const SyntheticRegistration& scene,
+                                             const render::PointCloud& scan,
+                                             std::size_t per_keyframe = 300);
 
 }  // namespace coloc::registration::align

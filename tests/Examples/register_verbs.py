@@ -97,9 +97,10 @@ def main():
                           ",".join(map(str, used[:2])), "--min-markers", "2", "--level", "rough"])
         ok &= check("two markers allowed", r.returncode == 0)
 
-        # Without markers (level cloud): the map's dense cloud onto the scan, from the markers'
-        # rigid transform moved by 5 cm (a user's --initial). The written map is in the scan's
-        # frame and its keyframes land within 2 cm of where the markers put them.
+        # Without markers (level surface, the default): the map's dense cloud onto the scan, from
+        # the markers' rigid transform moved by 5 cm (a user's --initial), then the BA against
+        # the scan's surface. The written map is in the scan's frame and its keyframes land
+        # within 1 cm of where the markers put them.
         t = summary["scan_from_slam"]
         qx, qy, qz, qw = t["quaternion_xyzw"]
         rot = [[1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
@@ -118,8 +119,13 @@ def main():
                  "--sequence", sequence, "--initial", initial, "--out", cloud_out, "--json"])
         if check("register without markers", r.returncode == 0):
             cloud = json.loads(r.stdout)
-            print("level cloud:", {k: cloud[k] for k in ("fitness", "inlier_rmse_m", "overlap")})
-            ok &= check("level cloud", cloud["level"] == "cloud" and cloud["fitness"] > 0.35)
+            print("level surface:", {k: cloud[k] for k in ("fitness", "inlier_rmse_m", "overlap")},
+                  "rounds:", cloud["surface"]["rounds"])
+            ok &= check("level surface", cloud["level"] == "surface" and cloud["fitness"] > 0.35)
+            rounds = cloud["surface"]["rounds"]
+            ok &= check("the surface BA brings the map's depth onto the scan",
+                        rounds[-1]["median_distance_m"][1] < rounds[0]["median_distance_m"][0]
+                        and rounds[-1]["depth_terms"] > 1000)
             ok &= check("cloud map in the scan frame", json.loads(
                 run([coloc, "mapdb", "info", cloud_out, "--json"]).stdout)["frame_name"] == "scan")
             # Both maps' keyframes against the twin's truth, without alignment: the co-location
@@ -132,9 +138,9 @@ def main():
                 ate = run([coloc, "eval", "ate", truth, kf, "--align", "none", "--json"])
                 errors[name] = (json.loads(ate.stdout)["translation_m"]["rmse"]
                                 if ate.returncode == 0 else 1e9)
-            print("keyframe co-location RMSE (m), rigid fits:", errors)
-            ok &= check("cloud as good as the markers' rigid fit",
-                        errors["cloud"] < max(errors["markers"] + 0.01, 0.03))
+            print("keyframe co-location RMSE (m), markers' rigid fit and no markers:", errors)
+            ok &= check("no markers as good as the markers' rigid fit",
+                        errors["cloud"] < max(errors["markers"] + 0.01, 0.02))
         else:
             print(r.stderr[-2000:])
         r = run([coloc, "register", "--map", os.path.join(tmp, "map.db"), "--scan", scan,
