@@ -3,11 +3,28 @@
 #include <ceres/loss_function.h>
 #include <ceres/solver.h>
 
+#include <algorithm>
 #include <cmath>
+#include <string>
+
+#include "slam/core/error.hpp"
 
 namespace coloc::registration::align {
 
 namespace optim = slam::optim;
+
+slam::mapping::BaWindow whole_map_window(const slam::map::Map& map) {
+  if (map.keyframe_count() < 2) {
+    throw Error("the map has " + std::to_string(map.keyframe_count()) +
+                    " keyframe(s); bundle adjustment needs two or more",
+                {.field = "keyframes"});
+  }
+  std::vector<KeyframeId> all;
+  for (const auto& [id, kf] : map.keyframes())
+    all.push_back(id);
+  std::sort(all.begin(), all.end());
+  return slam::mapping::make_window(map, all);
+}
 
 BaState BaState::of(const optim::BundleProblem& p) {
   BaState s;

@@ -13,6 +13,10 @@
 
 namespace coloc::registration::align {
 
+// Every keyframe and point of the map as one window, keyframes in id order (a deterministic
+// problem). Throws coloc::Error (field "keyframes") for fewer than two keyframes.
+slam::mapping::BaWindow whole_map_window(const slam::map::Map& map);
+
 // The values Ceres changes: 7 per pose (optim::pose_to_array) and the points.
 struct BaState {
   std::vector<double> poses;

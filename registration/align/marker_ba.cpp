@@ -248,17 +248,8 @@ MarkerBaReport marker_bundle_adjustment(slam::map::Map& map, const ScanCorners& 
                                         const std::unordered_set<KeyframeId>& fixed_keyframes,
                                         const std::vector<ScanPointObservation>& scan_points) {
   o.check();
-  if (map.keyframe_count() < 2) {
-    throw Error("the map has " + std::to_string(map.keyframe_count()) +
-                    " keyframe(s); bundle adjustment needs two or more",
-                {.field = "keyframes"});
-  }
   Stopwatch watch;
-  std::vector<KeyframeId> all;
-  for (const auto& [id, kf] : map.keyframes())
-    all.push_back(id);
-  std::sort(all.begin(), all.end());  // deterministic problem order
-  slam::mapping::BaWindow w = slam::mapping::make_window(map, all);
+  slam::mapping::BaWindow w = whole_map_window(map);
   for (std::size_t i = 0; i < w.problem.poses.size(); ++i) {
     // The fixed marker corners hold the gauge; refined keyframes are held where PnP put them.
     w.problem.poses[i].fixed = fixed_keyframes.contains(w.pose_ids[i]);

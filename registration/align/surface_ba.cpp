@@ -150,17 +150,8 @@ SurfaceBaReport surface_bundle_adjustment(slam::map::Map& map, const ScanSurface
                                           const SurfaceBaMarkers& markers) {
   o.check();
   if (markers.corners) markers.options.check();
-  if (map.keyframe_count() < 2) {
-    throw Error("the map has " + std::to_string(map.keyframe_count()) +
-                    " keyframe(s); bundle adjustment needs two or more",
-                {.field = "keyframes"});
-  }
   Stopwatch watch;
-  std::vector<KeyframeId> all;
-  for (const auto& [id, kf] : map.keyframes())
-    all.push_back(id);
-  std::sort(all.begin(), all.end());  // deterministic problem order
-  slam::mapping::BaWindow w = slam::mapping::make_window(map, all);
+  slam::mapping::BaWindow w = whole_map_window(map);
   for (auto& pose : w.problem.poses)
     pose.fixed = false;  // the surface holds the gauge
   const optim::Intrinsics& k = w.intrinsics;
