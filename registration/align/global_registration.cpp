@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <sstream>
@@ -27,8 +28,8 @@ using Features = pcl::PointCloud<pcl::FPFHSignature33>;
 constexpr double kDeg = std::numbers::pi / 180.0;
 
 Features::Ptr fpfh(const Cloud::Ptr& cloud, double radius) {
-  pcl::FPFHEstimation<pcl::PointNormal, pcl::PointNormal, pcl::FPFHSignature33> estimation;
-  estimation.setSearchMethod(std::make_shared<pcl::search::KdTree<pcl::PointNormal>>());
+  pcl::FPFHEstimation<NormalPoint, NormalPoint, pcl::FPFHSignature33> estimation;
+  estimation.setSearchMethod(std::make_shared<pcl::search::KdTree<NormalPoint>>());
   estimation.setRadiusSearch(radius);
   estimation.setInputCloud(cloud);
   estimation.setInputNormals(cloud);
@@ -37,7 +38,7 @@ Features::Ptr fpfh(const Cloud::Ptr& cloud, double radius) {
   return out;
 }
 
-Eigen::Vector3d xyz(const pcl::PointNormal& p) {
+Eigen::Vector3d xyz(const NormalPoint& p) {
   return {p.x, p.y, p.z};
 }
 
@@ -144,24 +145,47 @@ bool distinct(const SE3& a, const SE3& b, const GlobalRegistrationOptions& o) {
 struct Scored {
   SE3 scan_from_map;
   double fitness = 0.0, rmse = 0.0;
+  // Pearson correlation of the grey levels of the inlier pairs (map point, nearest scan point):
+  // near 1 when the colours agree where the shapes do, near 0 for a symmetric room turned
+  // round. Invariant to the camera's and the scanner's gain and offset. NaN when either cloud
+  // has no colour to compare (a constant grey) or fewer than 50 pairs.
+  double colour_correlation = std::numeric_limits<double>::quiet_NaN();
 };
 
-// Fitness and inlier RMSE of `map` moved by `t` against the scan's grid (reach: the inlier
-// distance).
-Scored score(const Cloud& map, const NearestGrid& scan, const SE3& t) {
+double grey(const NormalPoint& p) {
+  return 0.299 * p.r + 0.587 * p.g + 0.114 * p.b;
+}
+
+// Fitness, inlier RMSE and colour correlation of `map` moved by `t` against `scan` through its
+// grid (reach: the inlier distance).
+Scored score(const Cloud& map, const Cloud& scan, const NearestGrid& grid, const SE3& t) {
   std::size_t inliers = 0;
   double sum = 0.0;
-  for (const pcl::PointNormal& p : map) {
+  double sa = 0.0, sb = 0.0, saa = 0.0, sbb = 0.0, sab = 0.0;
+  for (const NormalPoint& p : map) {
     const Eigen::Vector3d q = t * xyz(p);
     if (!q.allFinite()) continue;
     double d2 = 0.0;
-    if (scan.nearest(q, &d2) < 0) continue;
+    const int nearest = grid.nearest(q, &d2);
+    if (nearest < 0) continue;
     ++inliers;
     sum += d2;
+    const double a = grey(p), b = grey(scan[static_cast<std::size_t>(nearest)]);
+    sa += a;
+    sb += b;
+    saa += a * a;
+    sbb += b * b;
+    sab += a * b;
   }
   Scored s{t};
   s.fitness = map.empty() ? 0.0 : static_cast<double>(inliers) / static_cast<double>(map.size());
   s.rmse = inliers == 0 ? 0.0 : std::sqrt(sum / static_cast<double>(inliers));
+  if (inliers >= 50) {
+    const double n = static_cast<double>(inliers);
+    const double var_a = saa / n - (sa / n) * (sa / n), var_b = sbb / n - (sb / n) * (sb / n);
+    if (var_a > 1.0 && var_b > 1.0)  // grey levels that vary by more than one step
+      s.colour_correlation = (sab / n - (sa / n) * (sb / n)) / std::sqrt(var_a * var_b);
+  }
   return s;
 }
 
@@ -198,11 +222,11 @@ SE3 refine(const std::vector<Level>& levels, SE3 t, const GlobalRegistrationOpti
       Eigen::Matrix<double, 6, 6> h = Eigen::Matrix<double, 6, 6>::Zero();
       Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
       std::size_t used = 0;
-      for (const pcl::PointNormal& p : map) {
+      for (const NormalPoint& p : map) {
         const Eigen::Vector3d q = t * xyz(p);
         const int nearest = grid.nearest(q, nullptr);
         if (nearest < 0) continue;
-        const pcl::PointNormal& s = scan[static_cast<std::size_t>(nearest)];
+        const NormalPoint& s = scan[static_cast<std::size_t>(nearest)];
         const Eigen::Vector3d n(s.normal_x, s.normal_y, s.normal_z);
         const double r = n.dot(q - xyz(s));
         Eigen::Matrix<double, 6, 1> j;
@@ -247,7 +271,7 @@ std::string figures(const Scored& s, double runner_up) {
   std::ostringstream out;
   out.precision(3);
   out << "fitness " << s.fitness << ", inlier RMSE " << s.rmse << " m, runner-up fitness "
-      << runner_up;
+      << runner_up << ", colour correlation " << s.colour_correlation;
   return out.str();
 }
 
@@ -270,6 +294,9 @@ void GlobalRegistrationOptions::check() const {
     throw Error("must be in (0, 1]", {.field = "min_fitness"});
   if (!(ambiguity > 0.0 && ambiguity <= 1.0))
     throw Error("must be in (0, 1]", {.field = "ambiguity"});
+  if (!(min_colour_correlation > -1.0 && min_colour_correlation <= 1.0))
+    throw Error("must be in (-1, 1]", {.field = "min_colour_correlation"});
+  if (!(colour_margin > 0.0)) throw Error("must be positive", {.field = "colour_margin"});
 }
 
 GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
@@ -365,12 +392,12 @@ GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
     throw Error("too few points on the ICP grids to refine", {.field = "registration"});
   std::vector<Scored> refined;
   for (const SE3& t : proposals)
-    refined.push_back(score(*map, scan_grid, refine(levels, t, o, 1)));
+    refined.push_back(score(*map, *scan, scan_grid, refine(levels, t, o, 1)));
   std::sort(refined.begin(), refined.end(),
             [](const Scored& a, const Scored& b) { return a.fitness > b.fitness; });
   for (const SE3& t :
        initial ? std::vector<SE3>{} : probes(refined.front().scan_from_map, *map, o.gravity))
-    refined.push_back(score(*map, scan_grid, refine(levels, t, o, 1)));
+    refined.push_back(score(*map, *scan, scan_grid, refine(levels, t, o, 1)));
   // The best of proposals and probes (a probe may find a better fit than every proposal), and
   // the best two far from it, refined on every level and judged there: at the coarse level's
   // generous inlier distance a shift along a large wall still looks good; at the finest it
@@ -380,19 +407,36 @@ GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
   const Level& finest = levels.back();
   const NearestGrid fine_grid(*finest.scan, o.inlier_factor * o.icp_voxels[levels.size() - 1]);
   const auto judge = [&](const SE3& t) {
-    return score(*finest.map, fine_grid, refine(levels, t, o, levels.size()));
+    return score(*finest.map, *finest.scan, fine_grid, refine(levels, t, o, levels.size()));
   };
-  const Scored winner = judge(refined.front().scan_from_map);
+  Scored winner = judge(refined.front().scan_from_map);
   // With a guess the user vouches for the basin: only the fit is judged, not its uniqueness.
   int rivals = initial ? 2 : 0;
+  std::optional<Scored> runner_up;
   for (const Scored& s : refined) {
     if (rivals == 2) break;
     if (!distinct(s.scan_from_map, winner.scan_from_map, o)) continue;
     ++rivals;
     const Scored rival = judge(s.scan_from_map);
-    if (distinct(rival.scan_from_map, winner.scan_from_map, o))
-      report.runner_up = std::max(report.runner_up, rival.fitness);
+    if (distinct(rival.scan_from_map, winner.scan_from_map, o) &&
+        (!runner_up || rival.fitness > runner_up->fitness))
+      runner_up = rival;
   }
+  // Of two solutions that fit the shape nearly alike, the one whose colours agree wins.
+  const auto better_coloured = [&](const Scored& a, const Scored& b) {
+    return std::isfinite(a.colour_correlation) &&
+           a.colour_correlation >= o.min_colour_correlation &&
+           (!std::isfinite(b.colour_correlation) ||
+            a.colour_correlation - b.colour_correlation >= o.colour_margin);
+  };
+  if (runner_up && runner_up->fitness >= o.ambiguity * winner.fitness &&
+      better_coloured(*runner_up, winner))
+    std::swap(winner, *runner_up);
+  if (runner_up) {
+    report.runner_up = runner_up->fitness;
+    report.runner_up_colour_correlation = runner_up->colour_correlation;
+  }
+  report.colour_correlation = winner.colour_correlation;
   report.scan_from_map = winner.scan_from_map;
   report.fitness = winner.fitness;
   report.rmse = winner.rmse;
@@ -405,22 +449,28 @@ GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
       p.y = static_cast<float>(q.y());
       p.z = static_cast<float>(q.z());
     }
-    report.overlap = score(*scan, NearestGrid(moved, inlier), SE3()).fitness;
+    report.overlap = score(*scan, moved, NearestGrid(moved, inlier), SE3()).fitness;
   }
   report.ms = watch.elapsed_ms();
   spdlog::debug(
       "global registration: fitness {:.3f}, RMSE {:.4f} m, overlap {:.3f}, runner-up {:.3f}, "
-      "{} matches, {:.0f} ms",
-      report.fitness, report.rmse, report.overlap, report.runner_up, report.matches, report.ms);
+      "colour correlation {:.3f} (runner-up {:.3f}), {} matches, {:.0f} ms",
+      report.fitness, report.rmse, report.overlap, report.runner_up, report.colour_correlation,
+      report.runner_up_colour_correlation, report.matches, report.ms);
   if (winner.fitness < o.min_fitness)
     throw Error("no transform puts the map on the scan (" + figures(winner, report.runner_up) +
                     "; needs fitness >= " + std::to_string(o.min_fitness) +
                     "): another building, or too little overlap? Give --initial or use markers",
                 {.field = "registration"});
-  if (report.runner_up >= o.ambiguity * winner.fitness)
+  // A rival that fits the shape nearly as well is told apart by the colours when they agree
+  // clearly better at the winner (a symmetric room whose walls differ in what hangs on them).
+  const bool colours_decide = !runner_up || better_coloured(winner, *runner_up);
+  report.decided_by_colour = report.runner_up >= o.ambiguity * winner.fitness && colours_decide;
+  if (report.runner_up >= o.ambiguity * winner.fitness && !colours_decide)
     throw Error("ambiguous: another transform, far from the best, fits the map nearly as well (" +
                     figures(winner, report.runner_up) +
-                    "): a symmetric or repeated space. Give --initial or use markers",
+                    ") and the colours do not tell them apart: a symmetric or repeated space. "
+                    "Give --initial or use markers",
                 {.field = "registration"});
   return report;
 }

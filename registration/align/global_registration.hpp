@@ -16,9 +16,12 @@
 // 5. The verdict. The best refined proposal is accepted only when its fitness passes, and no
 //    other solution far from it explains the map nearly as well: the other proposals, and
 //    probes where a symmetric or repeated space would fit (the winner moved a metre along each
-//    axis, turned half a turn), are refined too. Otherwise a coloc::Error says which test failed
-//    and what to do (an initial guess, or markers).
+//    axis, turned half a turn), are refined too. A rival that fits the shape nearly as well is
+//    overruled when the colours of the map's points and the scan's agree clearly better at the
+//    winner (a bare room is symmetric in shape, rarely in what hangs on its walls). Otherwise a
+//    coloc::Error says which test failed and what to do (an initial guess, or markers).
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 
@@ -40,6 +43,11 @@ struct GlobalRegistrationOptions {
   int icp_iterations = 30;                        // per level
   double min_fitness = 0.35;  // share of map points on the scan after the refinement
   double ambiguity = 0.85;    // another solution with this share of the best's fitness
+  // ... is still accepted when the colours decide: the winner's colour correlation (Scored in
+  // the .cpp: grey levels of inlier pairs) is at least min_colour_correlation and exceeds the
+  // rival's by colour_margin.
+  double min_colour_correlation = 0.3;
+  double colour_margin = 0.2;
   double distinct_m = 0.5, distinct_deg = 10.0;  // what counts as another solution
   std::uint64_t seed = 1;
   // Throws coloc::Error naming the first invalid field.
@@ -52,6 +60,11 @@ struct GlobalRegistrationReport {
   double rmse = 0.0;       // of those points' distances (metres)
   double overlap = 0.0;    // share of the scan's voxels that map points land in
   double runner_up = 0.0;  // fitness of the best solution far from the accepted one (0: none)
+  // Pearson correlation of the grey levels of inlier pairs, of the accepted solution and of the
+  // runner-up (NaN: no colour to compare, or no runner-up).
+  double colour_correlation = std::numeric_limits<double>::quiet_NaN();
+  double runner_up_colour_correlation = std::numeric_limits<double>::quiet_NaN();
+  bool decided_by_colour = false;  // the runner-up's fit alone would have made it ambiguous
   std::size_t map_points = 0, scan_points = 0, matches = 0;
   bool from_initial = false;  // the global search was skipped
   double ms = 0.0;

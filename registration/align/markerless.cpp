@@ -87,6 +87,24 @@ KeyframeDepthSamples keyframe_depth_samples(const slam::map::Map& map,
   return out;
 }
 
+std::optional<Eigen::Vector3d> map_up_direction(const slam::map::Map& map, std::size_t min_windows,
+                                                std::size_t* windows) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  std::size_t n = 0;
+  for (const auto& [id, kf] : map.keyframes()) {
+    if (!kf.gravity) continue;
+    const Eigen::Vector3d up =
+        kf.cam_from_world().so3().inverse() * kf.gravity->specific_force_cam -
+        kf.gravity->accel_world;
+    if (!(up.norm() > 1.0) || !up.allFinite()) continue;  // not a gravity reading (m/s^2)
+    sum += up.normalized();
+    ++n;
+  }
+  if (windows) *windows = n;
+  if (n < min_windows || sum.norm() < 0.98 * static_cast<double>(n)) return std::nullopt;
+  return sum.normalized();
+}
+
 MarkerlessResult register_map_markerless(slam::map::Map& map, const dataset::Sequence& sequence,
                                          const Camera& camera, const render::PointCloud& scan_cloud,
                                          const MarkerlessOptions& options,
@@ -97,7 +115,23 @@ MarkerlessResult register_map_markerless(slam::map::Map& map, const dataset::Seq
   const render::PointCloud dense =
       map_dense_cloud(map, sequence, camera, options.map_cloud, &r.map_cloud);
   r.map_cloud_points = dense.points.size();
-  r.global = register_clouds(dense, scan_cloud, options.global, initial);
+  if (options.map_gravity && !initial) r.up_slam = map_up_direction(map, 5, &r.gravity_windows);
+  if (r.up_slam) {
+    // Level the map's cloud (its up onto +z), search yaw and translation, undo the levelling.
+    const SE3 level(
+        SO3::from_matrix(Eigen::Quaterniond::FromTwoVectors(*r.up_slam, Eigen::Vector3d::UnitZ())
+                             .toRotationMatrix()),
+        Eigen::Vector3d::Zero());
+    render::PointCloud levelled = dense;
+    for (Eigen::Vector3f& p : levelled.points)
+      p = (level * p.cast<double>()).cast<float>();
+    GlobalRegistrationOptions g = options.global;
+    g.gravity = true;
+    r.global = register_clouds(levelled, scan_cloud, g);
+    r.global.scan_from_map = r.global.scan_from_map * level;
+  } else {
+    r.global = register_clouds(dense, scan_cloud, options.global, initial);
+  }
   r.scan_from_slam = Sim3(r.global.scan_from_map);
   transform_map(map, r.scan_from_slam);
   r.ms_rigid = watch.elapsed_ms();
@@ -115,6 +149,7 @@ MarkerlessResult register_map_markerless(slam::map::Map& map, const dataset::Seq
 
 std::string markerless_json(const MarkerlessResult& r) {
   using Json = nlohmann::ordered_json;
+  const auto finite_or_null = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
   const GlobalRegistrationReport& g = r.global;
   Json transform = Json::array();
   const Eigen::Matrix4d m = r.scan_from_slam.to_se3().matrix();
@@ -128,8 +163,13 @@ std::string markerless_json(const MarkerlessResult& r) {
             {"inlier_rmse_m", g.rmse},
             {"overlap", g.overlap},
             {"runner_up_fitness", g.runner_up},
+            {"colour_correlation", finite_or_null(g.colour_correlation)},
+            {"runner_up_colour_correlation", finite_or_null(g.runner_up_colour_correlation)},
+            {"decided_by_colour", g.decided_by_colour},
             {"feature_matches", g.matches},
             {"from_initial", g.from_initial},
+            {"levelled_by_gravity", r.up_slam.has_value()},
+            {"gravity_windows", r.gravity_windows},
             {"map_cloud_points", r.map_cloud_points},
             {"keyframes_fused", r.map_cloud.frames_used},
             {"ms", g.ms},

@@ -25,6 +25,10 @@ struct DepthSampleOptions {
 
 struct MarkerlessOptions {
   GlobalRegistrationOptions global;
+  // A map with accelerometer windows (an IMU recording) is levelled by its gravity first, and
+  // the global search then looks for yaw and translation only (the scan is z-up): one degree of
+  // rotation instead of three, and two matches per RANSAC sample instead of three.
+  bool map_gravity = true;
   SequenceCloudOptions map_cloud{.every = 1, .voxel_size = 0.02};
   bool surface = true;  // the surface BA after the rigid registration
   ScanSurfaceOptions scan_surface;
@@ -38,6 +42,10 @@ struct MarkerlessResult {
   SequenceCloudStats map_cloud;
   std::size_t map_cloud_points = 0;
   Sim3 scan_from_slam;  // the rigid part (the surface BA bends the map further)
+  // The map's up direction (slam frame) when the search used it (map_gravity), and from how
+  // many keyframes' windows.
+  std::optional<Eigen::Vector3d> up_slam;
+  std::size_t gravity_windows = 0;
   std::optional<SurfaceBaReport> surface;
   std::size_t surface_points = 0;  // the scan's surface grid
   double ms_rigid = 0.0, ms_surface = 0.0;
@@ -47,6 +55,16 @@ struct MarkerlessResult {
 render::PointCloud map_dense_cloud(const slam::map::Map& map, const dataset::Sequence& sequence,
                                    const Camera& camera, const SequenceCloudOptions& options,
                                    SequenceCloudStats* stats = nullptr);
+
+// The direction against gravity in the map's frame, from its keyframes' accelerometer windows
+// (slam/map/inertial.hpp): each window's specific force turned into the world frame, less the
+// camera's own acceleration there, is gravity's reaction, pointing up. Their mean direction;
+// none when fewer than `min_windows` keyframes have a window, or when they disagree (the mean
+// of the unit vectors shorter than 0.98: more than about 10 degrees of spread). `windows` (may
+// be null) gets how many were used.
+std::optional<Eigen::Vector3d> map_up_direction(const slam::map::Map& map,
+                                                std::size_t min_windows = 5,
+                                                std::size_t* windows = nullptr);
 
 // A grid of each keyframe's depth pixels in its camera frame, read from `sequence`; keyframes
 // whose frame is missing or unreadable get none.

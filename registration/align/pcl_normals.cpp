@@ -31,7 +31,7 @@ NormalCloud::Ptr thinned_with_normals(const render::PointCloud& in, double voxel
   for (std::size_t i = 0; i < points->size(); ++i) {
     const pcl::Normal& n = normals[i];
     if (!std::isfinite(n.normal_x)) continue;  // too few neighbours for a plane
-    pcl::PointNormal p;
+    NormalPoint p;
     p.x = (*points)[i].x;
     p.y = (*points)[i].y;
     p.z = (*points)[i].z;
@@ -39,6 +39,14 @@ NormalCloud::Ptr thinned_with_normals(const render::PointCloud& in, double voxel
     p.normal_y = n.normal_y;
     p.normal_z = n.normal_z;
     p.curvature = std::isfinite(n.curvature) ? n.curvature : 0.0f;
+    if (thin.colours.size() == thin.points.size()) {
+      const auto& c = thin.colours[i];
+      p.r = c[0];
+      p.g = c[1];
+      p.b = c[2];
+    } else {
+      p.r = p.g = p.b = 128;  // no colour: the verdict's colour test abstains
+    }
     out->push_back(p);
   }
   return out;

@@ -1,6 +1,7 @@
 #pragma once
-// A cloud on a voxel grid with PCL normals: what the global registration's features and ICP and
-// the scan surface (scan_surface.hpp) are computed on. PCL types: include only from .cpp files.
+// A cloud on a voxel grid with PCL normals and its colour: what the global registration's
+// features, ICP and verdict and the scan surface (scan_surface.hpp) are computed on. PCL types:
+// include only from .cpp files.
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
@@ -8,7 +9,8 @@
 
 namespace coloc::registration::align {
 
-using NormalCloud = pcl::PointCloud<pcl::PointNormal>;
+using NormalPoint = pcl::PointXYZRGBNormal;
+using NormalCloud = pcl::PointCloud<NormalPoint>;
 
 // `in` on a voxel grid of `voxel` metres, with normals from the neighbours within
 // `normal_radius` metres (oriented towards +z where ambiguous, as a scan's floor and a map's);

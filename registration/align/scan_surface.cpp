@@ -21,7 +21,7 @@ void ScanSurfaceOptions::check() const {
 
 struct ScanSurface::Impl {
   NormalCloud::Ptr cloud;
-  pcl::KdTreeFLANN<pcl::PointNormal> tree;
+  pcl::KdTreeFLANN<NormalPoint> tree;
 };
 
 ScanSurface::ScanSurface(const render::PointCloud& scan, const ScanSurfaceOptions& o)
@@ -29,7 +29,7 @@ ScanSurface::ScanSurface(const render::PointCloud& scan, const ScanSurfaceOption
   o.check();
   const NormalCloud::Ptr all = thinned_with_normals(scan, o.voxel_size, o.normal_radius);
   impl_->cloud = std::make_shared<NormalCloud>();
-  for (const pcl::PointNormal& p : *all) {
+  for (const NormalPoint& p : *all) {
     if (p.curvature <= o.max_curvature) impl_->cloud->push_back(p);
   }
   if (impl_->cloud->empty())
@@ -50,7 +50,7 @@ std::size_t ScanSurface::size() const {
 std::optional<SurfaceHit> ScanSurface::nearest(const Eigen::Vector3d& x,
                                                double max_distance) const {
   if (!x.allFinite()) return std::nullopt;
-  pcl::PointNormal query;
+  NormalPoint query;
   query.x = static_cast<float>(x.x());
   query.y = static_cast<float>(x.y());
   query.z = static_cast<float>(x.z());
@@ -58,7 +58,7 @@ std::optional<SurfaceHit> ScanSurface::nearest(const Eigen::Vector3d& x,
   std::vector<float> d2(1);
   if (impl_->tree.nearestKSearch(query, 1, index, d2) < 1) return std::nullopt;
   if (d2[0] > max_distance * max_distance) return std::nullopt;
-  const pcl::PointNormal& p = (*impl_->cloud)[static_cast<std::size_t>(index[0])];
+  const NormalPoint& p = (*impl_->cloud)[static_cast<std::size_t>(index[0])];
   SurfaceHit hit;
   hit.point = {p.x, p.y, p.z};
   hit.normal = Eigen::Vector3d(p.normal_x, p.normal_y, p.normal_z).normalized();

@@ -161,6 +161,59 @@ TEST(GlobalRegistration, AMapOfAnotherRoomDoesNotFit) {
   }
 }
 
+// A bare 6 x 4 m room: the same shape turned half a turn about its centre. `posters` paints
+// dark and bright rectangles on two walls (what hangs on real walls), which break the symmetry
+// for the colours only.
+render::PointCloud symmetric_room(bool posters) {
+  Sampler s;
+  s.step = 0.03;
+  s.plane({0, 0, 0}, {6, 0, 0}, {0, 4, 0});
+  s.plane({0, 0, 0}, {6, 0, 0}, {0, 0, 2.5});
+  s.plane({0, 4, 0}, {6, 0, 0}, {0, 0, 2.5});
+  s.plane({0, 0, 0}, {0, 4, 0}, {0, 0, 2.5});
+  s.plane({6, 0, 0}, {0, 4, 0}, {0, 0, 2.5});
+  if (posters) {
+    for (std::size_t i = 0; i < s.cloud.points.size(); ++i) {
+      const Eigen::Vector3f& p = s.cloud.points[i];
+      const bool wall_y0 = std::abs(p.y()) < 1e-3f, wall_x0 = std::abs(p.x()) < 1e-3f;
+      if (wall_y0 && p.x() > 0.8f && p.x() < 2.0f && p.z() > 0.9f && p.z() < 1.8f)
+        s.cloud.colours[i] = {20, 20, 30};
+      if (wall_y0 && p.x() > 3.5f && p.x() < 4.1f && p.z() > 1.2f && p.z() < 2.0f)
+        s.cloud.colours[i] = {240, 230, 200};
+      if (wall_x0 && p.y() > 0.5f && p.y() < 1.5f && p.z() > 0.5f && p.z() < 1.5f)
+        s.cloud.colours[i] = {230, 40, 40};
+    }
+  }
+  return s.cloud;
+}
+
+TEST(GlobalRegistration, ASymmetricRoomIsToldApartByWhatHangsOnItsWalls) {
+  const render::PointCloud scan = symmetric_room(true);
+  const SE3 map_from_scan(SO3::exp(Eigen::Vector3d(0, 0, 40 * kDeg)), {1.0, -2.0, 0.0});
+  const render::PointCloud map = map_of(scan, map_from_scan, 10.0);
+  GlobalRegistrationOptions o = test_options();
+  o.gravity = true;
+  const GlobalRegistrationReport r = register_clouds(map, scan, o);
+  expect_near(r.scan_from_map, map_from_scan.inverse(), 0.03, 1.0);
+  EXPECT_TRUE(r.decided_by_colour);  // the shape alone fits both ways
+  EXPECT_GT(r.colour_correlation, 0.8);
+  EXPECT_LT(r.runner_up_colour_correlation, r.colour_correlation - 0.2);
+}
+
+TEST(GlobalRegistration, ASymmetricGreyRoomIsAmbiguous) {
+  const render::PointCloud scan = symmetric_room(false);
+  const SE3 map_from_scan(SO3::exp(Eigen::Vector3d(0, 0, 40 * kDeg)), {1.0, -2.0, 0.0});
+  GlobalRegistrationOptions o = test_options();
+  o.gravity = true;
+  try {
+    register_clouds(map_of(scan, map_from_scan, 10.0), scan, o);
+    FAIL() << "a grey symmetric room must not register without a guess";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().field, "registration") << e.what();
+    EXPECT_NE(std::string(e.what()).find("ambiguous"), std::string::npos) << e.what();
+  }
+}
+
 TEST(GlobalRegistration, OptionsAreChecked) {
   GlobalRegistrationOptions o;
   o.voxel_size = 0.0;

@@ -3,6 +3,7 @@
 // point-to-plane terms' Jacobians, and named errors.
 #include <gtest/gtest.h>
 
+#include "registration/align/markerless.hpp"
 #include "registration/align/register.hpp"
 #include "registration/align/scan_surface.hpp"
 #include "registration/align/surface_ba.hpp"
@@ -136,6 +137,43 @@ TEST(SurfaceBa, TheSurfaceAnswersWithNormalsWithinTheGate) {
   EXPECT_NEAR(hit->normal.dot(Eigen::Vector3d(0.5, 0.5, 0.03) - hit->point), 0.03, 2e-3);
   EXPECT_FALSE(surface.nearest({0.5, 0.5, 0.2}, 0.05));
   EXPECT_FALSE(surface.nearest({NAN, 0.5, 0.0}, 0.05));
+}
+
+// Gives every keyframe of `map` an accelerometer window: gravity's reaction `up_slam` (unit,
+// map frame) times 9.81 seen in the camera, plus the camera's own acceleration `accel_world`.
+void add_gravity_windows(slam::map::Map& map, const Eigen::Vector3d& up_slam,
+                         const Eigen::Vector3d& accel_world) {
+  std::vector<KeyframeId> ids;
+  for (const auto& [id, kf] : map.keyframes())
+    ids.push_back(id);
+  for (KeyframeId id : ids) {
+    slam::map::Keyframe* kf = map.keyframe(id);
+    slam::map::GravityWindow g;
+    g.recording = ids.front();
+    g.specific_force_cam = kf->cam_from_world().so3() * (9.81 * up_slam + accel_world);
+    g.accel_world = accel_world;
+    kf->gravity = g;
+  }
+}
+
+TEST(MapGravity, TheUpDirectionComesFromTheKeyframesAccelerometerWindows) {
+  SyntheticRegistrationOptions o = bent_scene();
+  o.slam_from_scan = SE3(SO3::exp(Eigen::Vector3d(0.3, -0.2, 0.6)), Eigen::Vector3d(1, 2, 3));
+  SyntheticRegistration s = make_synthetic_registration(o);
+  const Eigen::Vector3d up = o.slam_from_scan.so3() * Eigen::Vector3d::UnitZ();
+  add_gravity_windows(s.map, up, Eigen::Vector3d(0.3, -0.1, 0.2));
+  std::size_t windows = 0;
+  const auto found = map_up_direction(s.map, 5, &windows);
+  ASSERT_TRUE(found);
+  EXPECT_EQ(windows, s.map.keyframe_count());
+  EXPECT_LT(std::acos(std::min(1.0, found->dot(up))), 1e-6);
+  // Too few windows, or windows that disagree: no direction rather than a wrong one.
+  EXPECT_FALSE(map_up_direction(s.map, s.map.keyframe_count() + 1));
+  std::size_t k = 0;
+  for (const auto& [id, kf] : s.map.keyframes()) {
+    if (k++ % 2 == 0) s.map.keyframe(id)->gravity->specific_force_cam *= -1.0;
+  }
+  EXPECT_FALSE(map_up_direction(s.map));
 }
 
 TEST(SurfaceBa, OptionsAndInputsGiveNamedErrors) {
