@@ -81,6 +81,13 @@ void print_text(const align::RegistrationResult& r, const fs::path& out, double 
                 << " px" << (m.rejected ? "  REJECTED" : "") << "\n";
     }
   }
+  if (r.surface) {
+    const align::SurfaceBaReport& b = *r.surface;
+    std::cout << "  surface BA: " << b.depth_samples << " depth samples, " << b.marker_observations
+              << " marker corner terms; median distance to the scan "
+              << 1e3 * b.rounds.front().median_before_m << " -> "
+              << 1e3 * b.rounds.back().median_after_m << " mm (" << r.ms_surface << " ms)\n";
+  }
   if (r.refine) {
     const auto& f = *r.refine;
     std::map<std::string, int> reasons;
@@ -277,11 +284,10 @@ void register_markerless(const RegisterArgs& a) {
 
 void register_verb(const RegisterArgs& a) {
   if (a.markers.empty()) return register_markerless(a);
-  if (a.level == "cloud" || a.level == "surface")
-    throw Error("level " + a.level + " registers without markers: leave --markers out",
-                {.field = "--level"});
-  if (a.level == "pointcloud" && a.scan.empty())
-    throw Error("level pointcloud needs the scan's points", {.field = "--scan"});
+  if (a.level == "cloud")
+    throw Error("level cloud registers without markers: leave --markers out", {.field = "--level"});
+  if ((a.level == "pointcloud" || a.level == "surface") && a.scan.empty())
+    throw Error("level " + a.level + " needs the scan's points", {.field = "--scan"});
   const align::RegisterOptions options = options_of(a);
   align::ScanCloudOptions cloud_options;
   cloud_options.voxel_size = a.voxel;
@@ -292,9 +298,10 @@ void register_verb(const RegisterArgs& a) {
   const markers::MarkerMap scan =
       select_markers(markers::read_marker_map(a.markers), a.only_markers, a.ignore_markers);
   align::ScanCloudStats cloud_stats;
-  const render::PointCloud cloud = options.level == align::Level::kPointcloud
-                                       ? read_scan_points(a, cloud_options, cloud_stats)
-                                       : render::PointCloud{};
+  const bool needs_cloud =
+      options.level == align::Level::kPointcloud || options.level == align::Level::kSurface;
+  const render::PointCloud cloud =
+      needs_cloud ? read_scan_points(a, cloud_options, cloud_stats) : render::PointCloud{};
 
   Stopwatch watch;
   const slam::bow::Vocabulary vocabulary = load_vocabulary(a.vocabulary);
@@ -309,12 +316,19 @@ void register_verb(const RegisterArgs& a) {
                 {.file = a.map.string(), .field = "metadata.frame_name"});
   }
   const Camera camera = slam::mapdb::camera_of(loaded, a.map);
+  // Level surface: the keyframes' depth samples from the recording (without it, map points only).
+  align::KeyframeDepthSamples depth;
+  if (options.level == align::Level::kSurface && !a.sequence.empty()) {
+    const SlamInputs recording = load_slam_inputs(a.sequence, {});
+    depth = align::keyframe_depth_samples(loaded.map, *recording.sequence, camera);
+  }
   spdlog::info("registering {} keyframes, {} points to {} scanned markers ({})",
                loaded.map.keyframe_count(), loaded.map.point_count(), scan.markers.size(), a.level);
   RowProgress refine_progress("refining keyframes", a.json);
   const align::RegistrationResult r = align::register_map(
       loaded.map, scan, camera, options, cloud.points.empty() ? nullptr : &cloud,
-      [&](std::size_t done, std::size_t total) { refine_progress.callback()(done, total); });
+      [&](std::size_t done, std::size_t total) { refine_progress.callback()(done, total); },
+      &depth);
   refine_progress.finish();
   if (r.ba && !r.ba->usable()) {
     throw CliFailure("fewer than two markers survived the bundle adjustment (rejected: " +
@@ -364,11 +378,13 @@ void add_register_verb(CLI::App& app) {
   cmd.add_option("--out", a->out, "Registered map database to write")->required();
   cmd.add_option(
          "--level", a->level,
-         "With markers: rough (markers' rigid fit), markers (+ marker BA) or pointcloud "
-         "(+ refinement); without: cloud (the map's dense cloud onto the scan, rigid) or surface "
-         "(+ the BA that bends the map onto the scan's surface; the default)")
+         "With markers: rough (markers' rigid fit), markers (+ marker BA), pointcloud "
+         "(+ refinement) or surface (+ the BA onto the scan's surface, markers kept as terms); "
+         "without: cloud (the map's dense cloud onto the scan, rigid) or surface (+ the BA "
+         "onto the scan's surface; the default)")
       ->check(CLI::IsMember({"rough", "markers", "pointcloud", "cloud", "surface"}));
-  cmd.add_option("--scan", a->scan, "The scan (E57, PLY or PCD), for levels pointcloud and cloud")
+  cmd.add_option("--scan", a->scan,
+                 "The scan (E57, PLY or PCD), for levels pointcloud, cloud and surface")
       ->check(CLI::ExistingFile);
   cmd.add_option("--initial", a->initial,
                  "Level cloud: a 4x4 scan_from_map to refine from, skipping the global search")
@@ -379,7 +395,8 @@ void add_register_verb(CLI::App& app) {
   cmd.add_option("--report", a->report,
                  "Directory for the report (registration.json; level pointcloud: Figure 5 PNGs)");
   cmd.add_option("--sequence", a->sequence,
-                 "The mapped sequence (TUM layout): keyframe images for the report's figures")
+                 "The mapped sequence: the keyframes' depth (levels cloud and surface) and images "
+                 "for the report's figures")
       ->check(CLI::ExistingDirectory);
   cmd.add_option("--report-keyframes", a->report_keyframes, "Keyframes drawn in the report")
       ->capture_default_str();

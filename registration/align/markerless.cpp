@@ -175,24 +175,9 @@ std::string markerless_json(const MarkerlessResult& r) {
             {"ms", g.ms},
             {"ms_rigid", r.ms_rigid}};
   if (r.surface) {
-    const SurfaceBaReport& b = *r.surface;
-    Json rounds = Json::array();
-    for (const SurfaceBaRound& round : b.rounds) {
-      rounds.push_back({{"gate_m", round.gate_m},
-                        {"point_terms", round.point_terms},
-                        {"depth_terms", round.depth_terms},
-                        {"median_distance_m", {round.median_before_m, round.median_after_m}},
-                        {"iterations", round.iterations}});
-    }
-    j["surface"] = {{"scan_surface_points", r.surface_points},
-                    {"keyframes", b.keyframes},
-                    {"points", b.points},
-                    {"observations", b.observations},
-                    {"depth_samples", b.depth_samples},
-                    {"outliers", b.outliers},
-                    {"point_rms_px", {b.initial_point_rms_px, b.final_point_rms_px}},
-                    {"rounds", rounds},
-                    {"ms", r.ms_surface}};
+    j["surface"] = Json::parse(surface_ba_json(*r.surface));
+    j["surface"]["scan_surface_points"] = r.surface_points;
+    j["surface"]["ms"] = r.ms_surface;
   }
   return j.dump();
 }

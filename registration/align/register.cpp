@@ -94,6 +94,8 @@ const char* level_name(Level level) {
       return "markers";
     case Level::kPointcloud:
       return "pointcloud";
+    case Level::kSurface:
+      return "surface";
   }
   return "unknown";
 }
@@ -102,7 +104,8 @@ Level parse_level(const std::string& name) {
   if (name == "rough") return Level::kRough;
   if (name == "markers") return Level::kMarkers;
   if (name == "pointcloud") return Level::kPointcloud;
-  throw Error("unknown registration level '" + name + "' (rough, markers or pointcloud)",
+  if (name == "surface") return Level::kSurface;
+  throw Error("unknown registration level '" + name + "' (rough, markers, pointcloud or surface)",
               {.field = "level"});
 }
 
@@ -111,16 +114,21 @@ void RegisterOptions::check() const {
   rough.check();
   ba.check();
   refine.check();
+  scan_surface.check();
+  surface.check();
   if (!(ba_max_rough_residual > 0.0))
     throw Error("must be positive (metres)", {.field = "ba_max_rough_residual"});
 }
 
 RegistrationResult register_map(slam::map::Map& map, const markers::MarkerMap& scan,
                                 const Camera& camera, const RegisterOptions& o,
-                                const render::PointCloud* cloud, const RefineProgress& progress) {
+                                const render::PointCloud* cloud, const RefineProgress& progress,
+                                const KeyframeDepthSamples* depth) {
   o.check();
-  if (o.level == Level::kPointcloud && (cloud == nullptr || cloud->points.empty()))
-    throw Error("level pointcloud needs the scan's points", {.field = "cloud"});
+  if ((o.level == Level::kPointcloud || o.level == Level::kSurface) &&
+      (cloud == nullptr || cloud->points.empty()))
+    throw Error(std::string("level ") + level_name(o.level) + " needs the scan's points",
+                {.field = "cloud"});
   RegistrationResult r;
   r.level = o.level;
   Stopwatch watch;
@@ -143,7 +151,20 @@ RegistrationResult register_map(slam::map::Map& map, const markers::MarkerMap& s
     corners.emplace(id, scan.markers.at(id).corners);
   r.ba = marker_bundle_adjustment(map, corners, camera, use, o.ba);
   r.ms_ba = watch.elapsed_ms();
-  if (o.level != Level::kPointcloud || !r.ba->usable()) return r;
+  if (!r.ba->usable()) return r;
+  if (o.level == Level::kSurface) {
+    watch.restart();
+    const ScanSurface surface(*cloud, o.scan_surface);
+    SurfaceBaMarkers kept;
+    kept.corners = &corners;
+    kept.use_ids = kept_ids(use, r.ba->rejected_ids());
+    kept.options = o.ba;
+    r.surface = surface_bundle_adjustment(map, surface, camera,
+                                          depth ? *depth : KeyframeDepthSamples{}, o.surface, kept);
+    r.ms_surface = watch.elapsed_ms();
+    return r;
+  }
+  if (o.level != Level::kPointcloud) return r;
 
   watch.restart();
   r.refine = refine_with_point_cloud(
@@ -202,6 +223,10 @@ std::string registration_json(const RegistrationResult& r) {
     j["markers"] = ba;
   }
   if (r.refine) j["pointcloud"] = refine_json(*r.refine);
+  if (r.surface) {
+    j["surface"] = Json::parse(surface_ba_json(*r.surface));
+    j["surface"]["ms"] = r.ms_surface;
+  }
   return j.dump();
 }
 

@@ -16,12 +16,15 @@
 #include "registration/align/refine.hpp"
 #include "registration/align/rough.hpp"
 #include "registration/align/slam_markers.hpp"
+#include "registration/align/surface_ba.hpp"
 
 namespace coloc::registration::align {
 
-enum class Level { kRough, kMarkers, kPointcloud };
+// kSurface: markers, then the global BA against the scan's surface with the kept markers'
+// corners as terms too (surface_ba.hpp): markers and surface together.
+enum class Level { kRough, kMarkers, kPointcloud, kSurface };
 const char* level_name(Level level);
-// "rough", "markers" or "pointcloud"; throws coloc::Error (field "level") otherwise.
+// "rough", "markers", "pointcloud" or "surface"; throws coloc::Error (field "level") otherwise.
 Level parse_level(const std::string& name);
 
 struct RegisterOptions {
@@ -30,6 +33,8 @@ struct RegisterOptions {
   RoughOptions rough;
   MarkerBaOptions ba;
   RefineOptions refine;                // level pointcloud
+  ScanSurfaceOptions scan_surface;     // level surface
+  SurfaceBaOptions surface;            // level surface
   double ba_max_rough_residual = 1.0;  // metres (see the header)
   // Throws coloc::Error naming the first invalid field.
   void check() const;
@@ -39,22 +44,26 @@ struct RegistrationResult {
   Level level = Level::kRough;
   SlamMarkers slam_markers;
   RoughAlignment rough;
-  std::optional<MarkerBaReport> ba;    // levels markers and pointcloud
-  std::optional<RefineReport> refine;  // level pointcloud
+  std::optional<MarkerBaReport> ba;        // levels markers and pointcloud
+  std::optional<RefineReport> refine;      // level pointcloud
+  std::optional<SurfaceBaReport> surface;  // level surface
   // The rigid (similarity) part: rough alignment's transform. The BA then deforms the map, so
   // no single transform maps the input onto the output at level markers.
   Sim3 scan_from_slam;
-  double ms_corners = 0.0, ms_rough = 0.0, ms_ba = 0.0, ms_refine = 0.0;
+  double ms_corners = 0.0, ms_rough = 0.0, ms_ba = 0.0, ms_refine = 0.0, ms_surface = 0.0;
 };
 
-// Registers `map` in place. Level pointcloud needs `cloud` (the scan's points, scan_cloud.hpp)
-// and refines after the marker BA (refine.hpp); `progress` reports its keyframes. Throws
+// Registers `map` in place. Levels pointcloud and surface need `cloud` (the scan's points,
+// scan_cloud.hpp): pointcloud refines after the marker BA (refine.hpp; `progress` reports its
+// keyframes), surface bends the map onto the scan's surface with the markers kept by the marker
+// BA, using `depth` (the keyframes' depth samples; null or empty: map points only). Throws
 // coloc::Error from rough alignment (too few or inconsistent markers, naming them), for invalid
-// options, and for level pointcloud without a cloud (field "cloud").
+// options, and for levels pointcloud and surface without a cloud (field "cloud").
 RegistrationResult register_map(slam::map::Map& map, const markers::MarkerMap& scan,
                                 const Camera& camera, const RegisterOptions& options = {},
                                 const render::PointCloud* cloud = nullptr,
-                                const RefineProgress& progress = {});
+                                const RefineProgress& progress = {},
+                                const KeyframeDepthSamples* depth = nullptr);
 
 // The result as one JSON document (level, transform, per-level residuals, per-marker figures,
 // times): what `coloc register` stores in the map's metadata and prints with --json.

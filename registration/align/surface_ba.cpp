@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <nlohmann/json.hpp>
 
 #include "registration/align/ba_terms.hpp"
 #include "slam/core/error.hpp"
@@ -205,6 +206,28 @@ SurfaceBaReport surface_bundle_adjustment(slam::map::Map& map, const ScanSurface
   report.outliers = static_cast<std::size_t>(std::count(skip.begin(), skip.end(), 1));
   report.ms = watch.elapsed_ms();
   return report;
+}
+
+std::string surface_ba_json(const SurfaceBaReport& b) {
+  using Json = nlohmann::ordered_json;
+  Json rounds = Json::array();
+  for (const SurfaceBaRound& round : b.rounds) {
+    rounds.push_back({{"gate_m", round.gate_m},
+                      {"point_terms", round.point_terms},
+                      {"depth_terms", round.depth_terms},
+                      {"median_distance_m", {round.median_before_m, round.median_after_m}},
+                      {"iterations", round.iterations}});
+  }
+  return Json{{"keyframes", b.keyframes},
+              {"points", b.points},
+              {"observations", b.observations},
+              {"depth_samples", b.depth_samples},
+              {"marker_observations", b.marker_observations},
+              {"outliers", b.outliers},
+              {"point_rms_px", {b.initial_point_rms_px, b.final_point_rms_px}},
+              {"rounds", rounds},
+              {"ms", b.ms}}
+      .dump();
 }
 
 }  // namespace coloc::registration::align

@@ -15,6 +15,7 @@
 // moves), with a gate that shrinks from round to round: wide first to pull drifted parts in,
 // then tight so that clutter the scan does not share stops pulling. Every term has a Huber
 // kernel on its whitened residual. The surface fixes the gauge: no keyframe is held.
+#include <string>
 #include <unordered_map>
 #include <vector>
 
@@ -75,6 +76,11 @@ SurfaceBaReport surface_bundle_adjustment(slam::map::Map& map, const ScanSurface
                                           const Camera& camera, const KeyframeDepthSamples& samples,
                                           const SurfaceBaOptions& options = {},
                                           const SurfaceBaMarkers& markers = {});
+
+// The report as a JSON object: keyframes, points, observations, depth_samples,
+// marker_observations, outliers, point_rms_px [before, after], rounds (gate_m, point_terms,
+// depth_terms, median_distance_m [before, after], iterations) and ms.
+std::string surface_ba_json(const SurfaceBaReport& report);
 
 // The term n . (x - q) / sigma on a map point x (q, n fixed): exposed for the Jacobian tests.
 class PointToPlaneCost : public ceres::SizedCostFunction<1, 3> {

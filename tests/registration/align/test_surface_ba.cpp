@@ -3,6 +3,8 @@
 // point-to-plane terms' Jacobians, and named errors.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include "registration/align/markerless.hpp"
 #include "registration/align/register.hpp"
 #include "registration/align/scan_surface.hpp"
@@ -73,6 +75,23 @@ TEST(SurfaceBa, MarkersAndSurfaceTogether) {
       s.scene.map, surface, s.scene.camera, synthetic_depth_samples(s.scene, s.scan), {}, markers);
   EXPECT_GT(r.marker_observations, 0u);
   EXPECT_LT(keyframe_centre_rms(s.scene, s.scene.map), 0.005);
+}
+
+TEST(SurfaceBa, LevelSurfaceRegistersByMarkersThenBendsOntoTheSurface) {
+  SyntheticRegistration scene = make_synthetic_registration(bent_scene());
+  const render::PointCloud scan = synthetic_scan_surface(scene);
+  const KeyframeDepthSamples depth = synthetic_depth_samples(scene, scan);
+  RegisterOptions o;
+  o.level = Level::kSurface;
+  EXPECT_THROW(register_map(scene.map, scene.scan_markers, scene.camera, o), Error);
+  const RegistrationResult r =
+      register_map(scene.map, scene.scan_markers, scene.camera, o, &scan, {}, &depth);
+  ASSERT_TRUE(r.ba && r.surface);
+  EXPECT_GT(r.surface->marker_observations, 0u);
+  EXPECT_LT(keyframe_centre_rms(scene, scene.map), 0.005);
+  const auto j = nlohmann::json::parse(registration_json(r));
+  EXPECT_EQ(j["level"], "surface");
+  EXPECT_EQ(j["surface"]["rounds"].size(), SurfaceBaOptions{}.gates_m.size());
 }
 
 // Numeric Jacobian of a one-row cost on a pose block, through the pose manifold.
