@@ -302,6 +302,8 @@ void GlobalRegistrationOptions::check() const {
   if (!(min_colour_correlation > -1.0 && min_colour_correlation <= 1.0))
     throw Error("must be in (-1, 1]", {.field = "min_colour_correlation"});
   if (!(colour_margin > 0.0)) throw Error("must be positive", {.field = "colour_margin"});
+  if (!(min_colour_agreement > -1.0 && min_colour_agreement <= min_colour_correlation))
+    throw Error("must be in (-1, min_colour_correlation]", {.field = "min_colour_agreement"});
 }
 
 GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
@@ -466,6 +468,12 @@ GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
     throw Error("no transform puts the map on the scan (" + figures(winner, report.runner_up) +
                     "; needs fitness >= " + std::to_string(o.min_fitness) +
                     "): another building, or too little overlap? Give --initial or use markers",
+                {.field = "registration"});
+  if (std::isfinite(winner.colour_correlation) &&
+      winner.colour_correlation < o.min_colour_agreement)
+    throw Error("the shape fits but the colours do not (" + figures(winner, report.runner_up) +
+                    "; needs a colour correlation >= " + std::to_string(o.min_colour_agreement) +
+                    "): another place of the same shape? Give --initial or use markers",
                 {.field = "registration"});
   // A rival that fits the shape nearly as well is told apart by the colours when they agree
   // clearly better at the winner (a symmetric room whose walls differ in what hangs on them).

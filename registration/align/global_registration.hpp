@@ -45,12 +45,15 @@ struct GlobalRegistrationOptions {
   // measured 0.75-0.82 (twin room and building, 7-Scenes halves); the twin room's map in the
   // twin building's scan (a similar room with the same wall textures elsewhere) 0.40.
   double min_fitness = 0.55;
-  double ambiguity = 0.85;    // another solution with this share of the best's fitness
+  double ambiguity = 0.85;  // another solution with this share of the best's fitness
   // ... is still accepted when the colours decide: the winner's colour correlation (Scored in
   // the .cpp: grey levels of inlier pairs) is at least min_colour_correlation and exceeds the
   // rival's by colour_margin.
   double min_colour_correlation = 0.3;
   double colour_margin = 0.2;
+  // Whatever the rivals, a result whose colours do not agree with the scan's (correlation below
+  // this; right fits measured 0.67-0.96) is refused: the shape fits, the place does not.
+  double min_colour_agreement = 0.1;
   double distinct_m = 0.5, distinct_deg = 10.0;  // what counts as another solution
   std::uint64_t seed = 1;
   // Throws coloc::Error naming the first invalid field.

@@ -214,6 +214,26 @@ TEST(GlobalRegistration, ASymmetricGreyRoomIsAmbiguous) {
   }
 }
 
+TEST(GlobalRegistration, AFitWhoseColoursDisagreeIsRefused) {
+  // The room's shape, but every colour inverted: the geometry fits, the place does not.
+  const render::PointCloud scan = symmetric_room(true);
+  render::PointCloud map = map_of(scan, SE3(SO3(), {0.5, 0.0, 0.0}), 10.0);
+  for (auto& c : map.colours)
+    c = {static_cast<std::uint8_t>(255 - c[0]), static_cast<std::uint8_t>(255 - c[1]),
+         static_cast<std::uint8_t>(255 - c[2])};
+  GlobalRegistrationOptions o = test_options();
+  o.gravity = true;
+  try {
+    register_clouds(map, scan, o);
+    FAIL() << "inverted colours must not register";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().field, "registration") << e.what();
+    EXPECT_NE(std::string(e.what()).find("the shape fits but the colours do not"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(GlobalRegistration, OptionsAreChecked) {
   GlobalRegistrationOptions o;
   o.voxel_size = 0.0;
