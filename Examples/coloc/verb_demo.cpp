@@ -174,7 +174,7 @@ void print_summary(const DemoSummary& s) {
   std::printf("\nThe chain on the twin (truth known exactly):\n");
   summary_row("SLAM map: keyframe ATE (Sim3-aligned)", s.map_ate_m, 100.0, "cm");
   summary_row("registration: markers level; co-location error", s.colocation_m, 100.0, "cm");
-  summary_row("registration: no markers (surface); co-location", s.markerless_colocation_m, 100.0,
+  summary_row("registration: no markers; co-location error", s.markerless_colocation_m, 100.0,
               "cm");
   summary_row("localization: time per frame (median)", s.localize_ms, 1.0, "ms");
   summary_row("fused head error in the scan frame (RMSE)", s.fused_head_m, 100.0, "cm");
