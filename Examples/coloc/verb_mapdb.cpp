@@ -65,6 +65,7 @@ void print_info(const fs::path& file, const mapdb::MapInfo& i, bool json) {
                 {"erased_keyframes", c.erased_keyframes},
                 {"gravity_windows", c.gravity_windows},
                 {"gyro_links", c.gyro_links},
+                {"keyframe_depths", c.keyframe_depths},
                 {"bytes_per_keyframe", per_kf}});
     return;
   }
@@ -82,7 +83,8 @@ void print_info(const fs::path& file, const mapdb::MapInfo& i, bool json) {
             << c.covisibility << ", loop edges " << c.loop_edges << ", erased keyframes "
             << c.erased_keyframes << "\n"
             << "IMU: gravity windows " << c.gravity_windows << ", gyro links " << c.gyro_links
-            << "\n";
+            << "\n"
+            << "keyframe depth images " << c.keyframe_depths << "\n";
 }
 
 void run_verify(const fs::path& file, const fs::path& vocabulary_path, bool json) {

@@ -220,36 +220,40 @@ SE3 read_initial(const fs::path& path) {
   return rigid_from_matrix(m, {.file = path.string(), .field = "--initial"});
 }
 
-// Without --markers: the map's dense cloud (its keyframes' depth from --sequence) registered to
-// the scan's points (registration/align/markerless.hpp), the map moved by the result.
+// Without --markers: the map's dense cloud (its keyframes' depth, from --sequence or else stored
+// in the map) registered to the scan's points (registration/align/markerless.hpp), the map
+// moved by the result.
 void register_markerless(const RegisterArgs& a) {
-  if (a.scan.empty() || a.sequence.empty())
-    throw Error(
-        "without --markers, the map is registered by its dense cloud: give --scan and "
-        "--sequence (the recording the map was built from)",
-        {.field = "--markers"});
+  if (a.scan.empty())
+    throw Error("without --markers, the map is registered by its dense cloud: give --scan",
+                {.field = "--markers"});
   if (a.level != "cloud" && a.level != "surface")
     throw Error("level " + a.level + " needs --markers (without them: cloud or surface)",
                 {.field = "--level"});
   { const AtomicFile probe(a.out); }
   const std::optional<SE3> initial =
       a.initial.empty() ? std::nullopt : std::optional<SE3>(read_initial(a.initial));
-  align::ScanCloudOptions cloud_options;
-  cloud_options.voxel_size = a.voxel;
-  align::ScanCloudStats cloud_stats;
-  const render::PointCloud scan = read_scan_points(a, cloud_options, cloud_stats);
   const slam::bow::Vocabulary vocabulary = load_vocabulary(a.vocabulary);
   slam::mapdb::LoadedMap loaded = slam::mapdb::load_map(a.map, vocabulary, {.rebuild_bow = false});
   if (loaded.metadata.frame_name != "slam")
     throw Error("the map is already in frame '" + loaded.metadata.frame_name + "'",
                 {.file = a.map.string(), .field = "metadata.frame_name"});
-  const SlamInputs recording = load_slam_inputs(a.sequence, {});
+  // The recording when given (full resolution, colour), else the depth the map stores; a map
+  // without it (schema < 4) needs --sequence, which is said before the scan is read.
+  const std::optional<SlamInputs> recording =
+      a.sequence.empty() ? std::nullopt
+                         : std::optional<SlamInputs>(load_slam_inputs(a.sequence, {}));
+  const dataset::Sequence* sequence = recording ? recording->sequence.get() : nullptr;
+  align::check_depth_source(loaded.map, sequence);
+  align::ScanCloudOptions cloud_options;
+  cloud_options.voxel_size = a.voxel;
+  align::ScanCloudStats cloud_stats;
+  const render::PointCloud scan = read_scan_points(a, cloud_options, cloud_stats);
   align::MarkerlessOptions options;
   options.global.gravity = a.gravity;
   options.surface = a.level == "surface";
-  const align::MarkerlessResult r =
-      align::register_map_markerless(loaded.map, *recording.sequence,
-                                     slam::mapdb::camera_of(loaded, a.map), scan, options, initial);
+  const align::MarkerlessResult r = align::register_map_markerless(
+      loaded.map, sequence, slam::mapdb::camera_of(loaded, a.map), scan, options, initial);
   const align::GlobalRegistrationReport& g = r.global;
   const Json summary = Json::parse(align::markerless_json(r));
   slam::mapdb::MapMetadata metadata = loaded.metadata;
@@ -316,11 +320,16 @@ void register_verb(const RegisterArgs& a) {
                 {.file = a.map.string(), .field = "metadata.frame_name"});
   }
   const Camera camera = slam::mapdb::camera_of(loaded, a.map);
-  // Level surface: the keyframes' depth samples from the recording (without it, map points only).
+  // Level surface: the keyframes' depth samples from the recording, else from the depth the map
+  // stores (without either, map points only).
   align::KeyframeDepthSamples depth;
-  if (options.level == align::Level::kSurface && !a.sequence.empty()) {
-    const SlamInputs recording = load_slam_inputs(a.sequence, {});
-    depth = align::keyframe_depth_samples(loaded.map, *recording.sequence, camera);
+  if (options.level == align::Level::kSurface) {
+    if (!a.sequence.empty()) {
+      const SlamInputs recording = load_slam_inputs(a.sequence, {});
+      depth = align::keyframe_depth_samples(loaded.map, recording.sequence.get(), camera);
+    } else {
+      depth = align::keyframe_depth_samples(loaded.map, nullptr, camera);
+    }
   }
   spdlog::info("registering {} keyframes, {} points to {} scanned markers ({})",
                loaded.map.keyframe_count(), loaded.map.point_count(), scan.markers.size(), a.level);
@@ -395,8 +404,8 @@ void add_register_verb(CLI::App& app) {
   cmd.add_option("--report", a->report,
                  "Directory for the report (registration.json; level pointcloud: Figure 5 PNGs)");
   cmd.add_option("--sequence", a->sequence,
-                 "The mapped sequence: the keyframes' depth (levels cloud and surface) and images "
-                 "for the report's figures")
+                 "The mapped sequence: the keyframes' depth (levels cloud and surface; without "
+                 "it, the depth the map stores, schema 4 on) and images for the report's figures")
       ->check(CLI::ExistingDirectory);
   cmd.add_option("--report-keyframes", a->report_keyframes, "Keyframes drawn in the report")
       ->capture_default_str();

@@ -41,21 +41,109 @@ void MarkerlessOptions::check() const {
   surface_ba.check();
 }
 
-render::PointCloud map_dense_cloud(const slam::map::Map& map, const dataset::Sequence& sequence,
+std::size_t keyframes_without_depth(const slam::map::Map& map) {
+  std::size_t n = 0;
+  for (const auto& [id, kf] : map.keyframes())
+    n += kf.depth ? 0 : 1;
+  return n;
+}
+
+void check_depth_source(const slam::map::Map& map, const dataset::Sequence* sequence) {
+  if (sequence) return;
+  // All or nothing: a map whose older keyframes lack depth (continued from a schema-3 file)
+  // would be registered by part of itself and bent by part of its poses.
+  const std::size_t missing = keyframes_without_depth(map);
+  if (missing > 0)
+    throw Error(std::to_string(missing) + " of the map's " + std::to_string(map.keyframe_count()) +
+                    " keyframes store no depth image (a map saved before schema 4, or made "
+                    "without depth): give the recording the map was built from",
+                {.field = "--sequence"});
+}
+
+namespace {
+
+// The dense cloud from the keyframes' stored depth: each valid small pixel back-projected at the
+// full-resolution pixel it stands for, as fuse_posed_frames does with every pixel of a frame.
+render::PointCloud stored_dense_cloud(const slam::map::Map& map, const Camera& camera,
+                                      const SequenceCloudOptions& o, SequenceCloudStats* stats) {
+  o.check();
+  SequenceCloudStats s;
+  VoxelFusion grid(o.voxel_size);
+  // In time order (the sequence's order), so the cloud is the same whatever the hash order.
+  std::vector<const slam::map::Keyframe*> keyframes;
+  for (const auto& [id, kf] : map.keyframes())
+    keyframes.push_back(&kf);
+  std::sort(keyframes.begin(), keyframes.end(), [](const auto* a, const auto* b) {
+    return a->frame.timestamp < b->frame.timestamp ||
+           (a->frame.timestamp == b->frame.timestamp && a->id < b->id);
+  });
+  for (std::size_t k = 0; k < keyframes.size(); k += o.every) {
+    const slam::map::Keyframe& kf = *keyframes[k];
+    if (!kf.depth) {
+      ++s.frames_unreadable;
+      continue;
+    }
+    const slam::map::KeyframeDepth& d = *kf.depth;
+    const SE3 world_from_cam = kf.cam_from_world().inverse();
+    for (int v = 0; v < d.height; ++v) {
+      for (int u = 0; u < d.width; ++u) {
+        const double z = d.metres(u, v);
+        if (!(z >= o.min_depth && z <= o.max_depth)) continue;
+        grid.add(world_from_cam * backproject(camera, d.full_pixel(u, v), z), {128, 128, 128});
+        ++s.depth_points;
+      }
+    }
+    ++s.frames_used;
+  }
+  if (s.frames_used == 0)
+    throw Error("no keyframe of the map stores a depth image (a map saved before schema 4?)",
+                {.field = "keyframe_depth"});
+  if (stats) *stats = s;
+  return grid.cloud();
+}
+
+// keyframe_depth_samples() from the stored depth: the grid of stride_px in full-resolution
+// pixels, taken at the stored pixels that stand for its positions.
+KeyframeDepthSamples stored_depth_samples(const slam::map::Map& map, const Camera& camera,
+                                          const DepthSampleOptions& o) {
+  KeyframeDepthSamples out;
+  for (const auto& [id, kf] : map.keyframes()) {
+    if (!kf.depth) continue;
+    const slam::map::KeyframeDepth& d = *kf.depth;
+    const int step = std::max(1, o.stride_px / d.factor);
+    const int first = (o.stride_px / 2) / d.factor;
+    std::vector<Eigen::Vector3d>& points = out[id];
+    for (int v = first; v < d.height; v += step) {
+      for (int u = first; u < d.width; u += step) {
+        const double z = d.metres(u, v);
+        if (z >= o.min_depth && z <= o.max_depth)
+          points.push_back(backproject(camera, d.full_pixel(u, v), z));
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+render::PointCloud map_dense_cloud(const slam::map::Map& map, const dataset::Sequence* sequence,
                                    const Camera& camera, const SequenceCloudOptions& options,
                                    SequenceCloudStats* stats) {
+  if (!sequence) return stored_dense_cloud(map, camera, options, stats);
   SequenceCloudOptions o = options;
   o.max_pose_dt = 1e-3;  // a keyframe is one of the sequence's frames
-  return fuse_posed_frames(sequence, camera, keyframe_trajectory(map), o, stats);
+  return fuse_posed_frames(*sequence, camera, keyframe_trajectory(map), o, stats);
 }
 
 KeyframeDepthSamples keyframe_depth_samples(const slam::map::Map& map,
-                                            const dataset::Sequence& sequence, const Camera& camera,
+                                            const dataset::Sequence* sequence, const Camera& camera,
                                             const DepthSampleOptions& o) {
   o.check();
+  if (!sequence) return stored_depth_samples(map, camera, o);
+  const dataset::Sequence& recording = *sequence;
   Trajectory frames;
-  for (std::size_t i = 0; i < sequence.size(); ++i)
-    frames.push_back({sequence.timestamp(i), SE3()});
+  for (std::size_t i = 0; i < recording.size(); ++i)
+    frames.push_back({recording.timestamp(i), SE3()});
   std::vector<std::pair<KeyframeId, double>> keyframes;  // by time
   Trajectory times;
   for (const auto& [id, kf] : map.keyframes()) {
@@ -69,7 +157,7 @@ KeyframeDepthSamples keyframe_depth_samples(const slam::map::Map& map,
   for (const auto& [kf, frame_index] : associate_by_time(times, frames, 1e-3)) {
     dataset::Frame frame;
     try {
-      frame = sequence.frame(frame_index);
+      frame = recording.frame(frame_index);
     } catch (const Error& e) {
       spdlog::warn("keyframe at t={:.3f}: no depth samples: {}", keyframes[kf].second, e.what());
       continue;
@@ -105,12 +193,14 @@ std::optional<Eigen::Vector3d> map_up_direction(const slam::map::Map& map, std::
   return sum.normalized();
 }
 
-MarkerlessResult register_map_markerless(slam::map::Map& map, const dataset::Sequence& sequence,
+MarkerlessResult register_map_markerless(slam::map::Map& map, const dataset::Sequence* sequence,
                                          const Camera& camera, const render::PointCloud& scan_cloud,
                                          const MarkerlessOptions& options,
                                          const std::optional<SE3>& initial) {
   options.check();
+  check_depth_source(map, sequence);
   MarkerlessResult r;
+  r.depth_source = sequence ? "sequence" : "map";
   Stopwatch watch;
   const render::PointCloud dense =
       map_dense_cloud(map, sequence, camera, options.map_cloud, &r.map_cloud);
@@ -172,6 +262,7 @@ std::string markerless_json(const MarkerlessResult& r) {
             {"gravity_windows", r.gravity_windows},
             {"map_cloud_points", r.map_cloud_points},
             {"keyframes_fused", r.map_cloud.frames_used},
+            {"depth_source", r.depth_source},
             {"ms", g.ms},
             {"ms_rigid", r.ms_rigid}};
   if (r.surface) {

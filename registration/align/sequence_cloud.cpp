@@ -16,13 +16,6 @@
 namespace coloc::registration::align {
 namespace {
 
-// A voxel's running sums (double: millions of points per voxel stay exact enough).
-struct Voxel {
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();
-  std::array<double, 3> colour{};
-  std::uint32_t points = 0;
-};
-
 // 21 bits per axis: +-10 km at 1 cm voxels.
 std::uint64_t voxel_key(const Eigen::Vector3d& p, double size) {
   constexpr std::int64_t kHalf = std::int64_t{1} << 20;
@@ -36,6 +29,35 @@ std::uint64_t voxel_key(const Eigen::Vector3d& p, double size) {
 }
 
 }  // namespace
+
+VoxelFusion::VoxelFusion(double voxel_size) : voxel_size_(voxel_size) {
+  if (!(voxel_size > 0.0 && std::isfinite(voxel_size)))
+    throw Error("must be a positive number of metres", {.field = "voxel_size"});
+}
+
+void VoxelFusion::add(const Eigen::Vector3d& p, const std::array<std::uint8_t, 3>& rgb) {
+  Voxel& voxel = grid_[voxel_key(p, voxel_size_)];
+  voxel.position += p;
+  for (std::size_t c = 0; c < 3; ++c)
+    voxel.colour[c] += rgb[c];
+  ++voxel.points;
+  ++added_;
+}
+
+render::PointCloud VoxelFusion::cloud() const {
+  render::PointCloud cloud;
+  cloud.splat_size = static_cast<float>(voxel_size_);
+  cloud.points.reserve(grid_.size());
+  cloud.colours.reserve(grid_.size());
+  for (const auto& [key, voxel] : grid_) {
+    const double n = voxel.points;
+    cloud.points.push_back((voxel.position / n).cast<float>());
+    cloud.colours.push_back({static_cast<std::uint8_t>(std::lround(voxel.colour[0] / n)),
+                             static_cast<std::uint8_t>(std::lround(voxel.colour[1] / n)),
+                             static_cast<std::uint8_t>(std::lround(voxel.colour[2] / n))});
+  }
+  return cloud;
+}
 
 void SequenceCloudOptions::check() const {
   if (every < 1) throw Error("must be >= 1", {.field = "every"});
@@ -68,7 +90,7 @@ render::PointCloud fuse_posed_frames(
     pose_of[f] = truth[t].world_from_cam;
 
   SequenceCloudStats s;
-  std::unordered_map<std::uint64_t, Voxel> grid;
+  VoxelFusion grid(o.voxel_size);
   for (std::size_t k = 0; k < frames.size(); ++k) {
     if (progress) progress(k + 1, frames.size());
     if (!pose_of[k]) {
@@ -92,18 +114,12 @@ render::PointCloud fuse_posed_frames(
         const double d = depth[u];
         if (!(d >= o.min_depth && d <= o.max_depth)) continue;
         const Eigen::Vector3d p = world_from_cam * backproject(camera, {u, v}, d);
-        Voxel& voxel = grid[voxel_key(p, o.voxel_size)];
-        voxel.position += p;
         if (colour) {
           const cv::Vec3b bgr = frame.color.at<cv::Vec3b>(v, u);
-          voxel.colour[0] += bgr[2];
-          voxel.colour[1] += bgr[1];
-          voxel.colour[2] += bgr[0];
+          grid.add(p, {bgr[2], bgr[1], bgr[0]});
         } else {
-          for (double& c : voxel.colour)
-            c += 128.0;
+          grid.add(p, {128, 128, 128});
         }
-        ++voxel.points;
         ++s.depth_points;
       }
     }
@@ -113,19 +129,8 @@ render::PointCloud fuse_posed_frames(
     throw Error(
         "no frame had a pose within " + std::to_string(o.max_pose_dt) + " s and readable depth",
         {.file = sequence.folder().string()});
-  render::PointCloud cloud;
-  cloud.splat_size = static_cast<float>(o.voxel_size);
-  cloud.points.reserve(grid.size());
-  cloud.colours.reserve(grid.size());
-  for (const auto& [key, voxel] : grid) {
-    const double n = voxel.points;
-    cloud.points.push_back((voxel.position / n).cast<float>());
-    cloud.colours.push_back({static_cast<std::uint8_t>(std::lround(voxel.colour[0] / n)),
-                             static_cast<std::uint8_t>(std::lround(voxel.colour[1] / n)),
-                             static_cast<std::uint8_t>(std::lround(voxel.colour[2] / n))});
-  }
   if (stats) *stats = s;
-  return cloud;
+  return grid.cloud();
 }
 
 void write_point_cloud(const std::filesystem::path& path, const render::PointCloud& cloud,

@@ -9,9 +9,11 @@
 // 7-Scenes: its colour and depth images are not registered (different cameras, no extrinsics
 // given), so a depth pixel's colour is taken from the colour image at the same pixel: the
 // geometry is exact to the depth camera, the colour is offset by a few pixels at edges.
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <unordered_map>
 
 #include "registration/render/scene.hpp"
 #include "slam/core/camera.hpp"
@@ -33,6 +35,27 @@ struct SequenceCloudOptions {
 struct SequenceCloudStats {
   std::size_t frames_used = 0, frames_without_pose = 0, frames_unreadable = 0;
   std::uint64_t depth_points = 0;  // back-projected before the voxel grid
+};
+
+// Points averaged in a voxel grid as they come (mean position and colour per voxel): how
+// fuse_posed_frames builds its cloud, for other sources of posed depth too (a map's stored
+// keyframe depth, markerless.hpp). Memory follows the surface, not the number of points added.
+class VoxelFusion {
+ public:
+  explicit VoxelFusion(double voxel_size);  // metres, > 0
+  void add(const Eigen::Vector3d& point, const std::array<std::uint8_t, 3>& rgb);
+  std::uint64_t points_added() const { return added_; }
+  render::PointCloud cloud() const;
+
+ private:
+  struct Voxel {  // running sums (double: millions of points per voxel stay exact enough)
+    Eigen::Vector3d position = Eigen::Vector3d::Zero();
+    std::array<double, 3> colour{};
+    std::uint32_t points = 0;
+  };
+  double voxel_size_;
+  std::unordered_map<std::uint64_t, Voxel> grid_;
+  std::uint64_t added_ = 0;
 };
 
 // Throws coloc::Error naming the sequence when it has no ground truth or no frame was used.

@@ -23,6 +23,15 @@ void scale_depths(slam::frame::Frame& f, double s) {
   }
 }
 
+// The stored depth image too (millimetres; a depth scaled beyond what u16 holds becomes none).
+void scale_depths(slam::map::KeyframeDepth& d, double s) {
+  for (std::uint16_t& mm : d.millimetres) {
+    if (mm == 0) continue;
+    const double scaled = std::round(mm * s);
+    mm = scaled >= 1.0 && scaled <= 65535.0 ? static_cast<std::uint16_t>(scaled) : 0;
+  }
+}
+
 }  // namespace
 
 void transform_map(slam::map::Map& map, const Sim3& t) {
@@ -52,6 +61,7 @@ void transform_map(slam::map::Map& map, const Sim3& t) {
   for (auto& [id, kf] : keyframes) {
     kf.frame.cam_from_world = moved_pose(kf.frame.cam_from_world, t);
     scale_depths(kf.frame, s);
+    if (kf.depth) scale_depths(*kf.depth, s);
   }
   for (auto& [id, p] : points) {
     p.position = t * p.position;

@@ -21,6 +21,7 @@
 #include "slam/core/se3.hpp"
 #include "slam/frame/frame.hpp"
 #include "slam/map/inertial.hpp"
+#include "slam/map/keyframe_depth.hpp"
 
 namespace coloc::slam::map {
 
@@ -41,6 +42,10 @@ struct Keyframe {
   // a keyframe chains the link that led to it with its own.
   std::optional<GravityWindow> gravity;
   std::optional<GyroLink> gyro;  // to gyro->next
+  // The frame's depth image, downsampled (keyframe_depth.hpp): tracking keeps it so that a saved
+  // map registers without the recording it was built from. None in maps from older files and
+  // in maps built without depth images.
+  std::optional<KeyframeDepth> depth;
 
   const SE3& cam_from_world() const { return frame.cam_from_world; }
   Eigen::Vector3d camera_centre() const { return frame.camera_centre(); }

@@ -110,6 +110,13 @@ void encode_f64s(std::span<const double> values, Bytes& out) {
     put_f64(out, v);
 }
 
+void encode_u16s(std::span<const std::uint16_t> values, Bytes& out) {
+  out.clear();
+  out.reserve(2 * values.size());
+  for (std::uint16_t v : values)
+    put_u16(out, v);
+}
+
 KeypointData decode_keypoints(std::span<const std::uint8_t> bytes, std::size_t n) {
   if (bytes.size() != n * kKeypointRecordBytes)
     throw Error("map database: keypoint blob of the wrong size");
@@ -175,6 +182,14 @@ std::vector<double> decode_f64s(std::span<const std::uint8_t> bytes) {
   std::vector<double> out(bytes.size() / 8);
   for (double& v : out)
     v = r.f64();
+  return out;
+}
+
+std::vector<std::uint16_t> decode_u16s(std::span<const std::uint8_t> bytes) {
+  ByteReader r(bytes);
+  std::vector<std::uint16_t> out(bytes.size() / 2);
+  for (std::uint16_t& v : out)
+    v = r.u16();
   return out;
 }
 

@@ -8,6 +8,7 @@
 //   descriptors (32 bytes per keypoint): 4 x u64; bit i of the descriptor is bit i % 64 of
 //       word i / 64 (features/descriptor.hpp)
 //   pose (56 bytes): f64 qx, qy, qz, qw (unit quaternion, Hamilton), tx, ty, tz (metres)
+//   keyframe depth (2 bytes per pixel): u16 millimetres, row by row (0 = no depth)
 //   f32 / f64 arrays (scale factors, distortion, a gyro link's 3 x 3 bias Jacobian row by
 //       row): the values one after the other
 #include <cstdint>
@@ -64,6 +65,7 @@ void encode_descriptor(const features::Descriptor& d, Bytes& out);
 void encode_pose(const SE3& pose, Bytes& out);
 void encode_f32s(const std::vector<float>& values, Bytes& out);
 void encode_f64s(std::span<const double> values, Bytes& out);
+void encode_u16s(std::span<const std::uint16_t> values, Bytes& out);
 
 // `bytes` must hold exactly n records.
 KeypointData decode_keypoints(std::span<const std::uint8_t> bytes, std::size_t n);
@@ -74,5 +76,6 @@ features::Descriptor decode_descriptor(std::span<const std::uint8_t> bytes);
 SE3 decode_pose(std::span<const std::uint8_t> bytes);
 std::vector<float> decode_f32s(std::span<const std::uint8_t> bytes);
 std::vector<double> decode_f64s(std::span<const std::uint8_t> bytes);
+std::vector<std::uint16_t> decode_u16s(std::span<const std::uint8_t> bytes);
 
 }  // namespace coloc::slam::mapdb::detail

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <numeric>
+#include <optional>
 #include <span>
 #include <thread>
 
@@ -19,14 +20,15 @@ namespace fs = std::filesystem;
 namespace detail {
 namespace {
 
-// The per-keypoint arrays of a keyframe, copied under the lock into buffers reused from one
-// keyframe to the next, and encoded after the lock is released.
+// The per-keypoint arrays of a keyframe and its depth image, copied under the lock into buffers
+// reused from one keyframe to the next, and encoded after the lock is released.
 struct FeatureCopy {
   KeyframeId id;
   std::vector<features::Keypoint> keypoints;
   std::vector<features::Descriptor> descriptors;
   std::vector<float> depth, u_right;
   std::vector<std::uint8_t> outlier;
+  std::optional<map::KeyframeDepth> depth_image;
 
   void copy(const map::Keyframe& kf) {
     id = kf.id;
@@ -35,12 +37,23 @@ struct FeatureCopy {
     depth.assign(kf.frame.depth.begin(), kf.frame.depth.end());
     u_right.assign(kf.frame.u_right.begin(), kf.frame.u_right.end());
     outlier.assign(kf.frame.outlier.begin(), kf.frame.outlier.end());
+    if (kf.depth) {
+      if (!depth_image) depth_image.emplace();
+      // Assigned member by member, so the pixel buffer is reused.
+      depth_image->width = kf.depth->width;
+      depth_image->height = kf.depth->height;
+      depth_image->factor = kf.depth->factor;
+      depth_image->millimetres.assign(kf.depth->millimetres.begin(), kf.depth->millimetres.end());
+    } else {
+      depth_image.reset();
+    }
   }
   void write(MapWriter& w, EncodedFeatures& buffer) const {
     buffer.id = id;
     encode_keypoints(keypoints, depth, u_right, outlier, buffer.keypoints);
     encode_descriptors(descriptors, buffer.descriptors);
     w.features(buffer);
+    if (depth_image) w.depth(id, *depth_image);
   }
 };
 

@@ -107,6 +107,7 @@ class Loader {
   void read_imu_table(const char* table, F&& f);
   void read_gravity_windows();
   void read_gyro_links();
+  void read_keyframe_depth();
   void read_erased();
   void restore();
   void rebuild_bow();
@@ -142,6 +143,7 @@ LoadedMap Loader::run() {
   read_loop_edges();
   read_gravity_windows();
   read_gyro_links();
+  read_keyframe_depth();
   read_erased();
   restore();
   if (options_.rebuild_bow && vocabulary_) rebuild_bow();
@@ -451,6 +453,62 @@ void Loader::read_gyro_links() {
       t.fail("dt", row, "not a positive interval with a finite bias Jacobian");
     r.keyframe.gyro = g;
   });
+}
+
+// Schema version 4 on: each keyframe's small depth image. Sizes are checked before the blob is
+// touched, so a damaged row is an error naming it, never a huge allocation or a read past it.
+void Loader::read_keyframe_depth() {
+  if (!has_table(file_.schema_version(), "keyframe_depth")) return;
+  TableReader t(file_, "keyframe_depth");
+  while (t.next()) {
+    Statement& s = t.row();
+    const KeyframeId id(t.id(0, "keyframe_id", "?", false));
+    const std::string row = row_of(id.value());
+    auto kf = keyframes_.find(id);
+    if (kf == keyframes_.end()) t.fail("keyframe_id", row, "no such keyframe");
+    const std::int64_t width = s.column_integer(1), height = s.column_integer(2);
+    const std::int64_t factor = s.column_integer(3);
+    const auto side_ok = [](std::int64_t v) { return v >= 1 && v <= map::KeyframeDepth::kMaxSide; };
+    if (!side_ok(width))
+      t.fail("width", row,
+             std::to_string(width) + " not in 1.." + std::to_string(map::KeyframeDepth::kMaxSide));
+    if (!side_ok(height))
+      t.fail("height", row,
+             std::to_string(height) + " not in 1.." + std::to_string(map::KeyframeDepth::kMaxSide));
+    if (factor < 1 || factor > map::KeyframeDepth::kMaxFactor)
+      t.fail(
+          "factor", row,
+          std::to_string(factor) + " not in 1.." + std::to_string(map::KeyframeDepth::kMaxFactor));
+    const features::OrbFeatures& image = kf->second.frame.features;
+    if (image.image_width > 0 && image.image_height > 0 &&
+        (width * factor > image.image_width || height * factor > image.image_height))
+      t.fail("width", row,
+             std::to_string(width) + " x " + std::to_string(height) + " pixels of factor " +
+                 std::to_string(factor) + " exceed the keyframe's " +
+                 std::to_string(image.image_width) + " x " + std::to_string(image.image_height) +
+                 " image");
+    const auto blob = s.column_blob(4);
+    const auto expected = static_cast<std::size_t>(width * height) * kDepthPixelBytes;
+    if (blob.size() != expected)
+      t.fail("depth", row,
+             "blob has " + std::to_string(blob.size()) + " bytes, expected " +
+                 std::to_string(width) + " x " + std::to_string(height) + " x " +
+                 std::to_string(kDepthPixelBytes));
+    ContentHash own;
+    own.integer(s.column_integer(0));
+    own.integer(width);
+    own.integer(height);
+    own.integer(factor);
+    own.blob(blob);
+    if (static_cast<std::uint64_t>(s.column_integer(5)) != own.value())
+      t.fail("checksum", row, "the depth image is damaged (row checksum mismatch)");
+    map::KeyframeDepth d;
+    d.width = static_cast<int>(width);
+    d.height = static_cast<int>(height);
+    d.factor = static_cast<int>(factor);
+    d.millimetres = decode_u16s(blob);
+    kf->second.depth = std::move(d);
+  }
 }
 
 void Loader::check_parents() {

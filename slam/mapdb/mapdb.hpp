@@ -37,8 +37,9 @@
 namespace coloc::slam::mapdb {
 
 // PRAGMA user_version of the files this build writes; it reads this version and older ones
-// (version 1 has no `loop_edges` table: such a map loads without loop edges).
-constexpr int kSchemaVersion = 3;
+// (version 1 has no `loop_edges` table: such a map loads without loop edges; before version 4
+// keyframes have no depth images).
+constexpr int kSchemaVersion = 4;
 
 // What a map file says about itself (table `metadata`).
 struct MapMetadata {
@@ -104,9 +105,9 @@ SaveReport save_map(const map::Map& map, const MapMetadata& metadata,
 
 // Saves a Map that other threads keep changing under `mutex` (SharedMap in slam/map): tracking
 // is never held up for more than a short copy. The mutex is taken briefly and repeatedly:
-//  1. keyframe features (keypoints, descriptors, depth, u_right: by far the largest part, and
-//     never changed once a keyframe is in the Map) are copied a few keyframes per lock and
-//     written without the lock;
+//  1. keyframe features (keypoints, descriptors, depth, u_right) and depth images (by far the
+//     largest part, and never changed once a keyframe is in the Map) are copied a few keyframes per
+//     lock and written without the lock;
 //  2. one lock copies the rest, which is small (poses, tree, covisibility, loop edges,
 //     keypoint -> point lists, markers, map points without their observation maps) and the
 //     features of keyframes created meanwhile: the snapshot, consistent as of this moment;
@@ -146,6 +147,7 @@ struct MapCounts {
                 erased_keyframes = 0, cameras = 0;
   std::uint64_t loop_edges = 0;  // rows, one per direction (0 in a schema-1 file)
   std::uint64_t gravity_windows = 0, gyro_links = 0;  // 0 before schema 3
+  std::uint64_t keyframe_depths = 0;                  // 0 before schema 4
 };
 
 struct MapInfo {

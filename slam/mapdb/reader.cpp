@@ -74,6 +74,7 @@ MapCounts MapFile::counts() const {
   if (has_table(schema_version_, "loop_edges")) c.loop_edges = n("loop_edges");
   if (has_table(schema_version_, "gravity_windows")) c.gravity_windows = n("gravity_windows");
   if (has_table(schema_version_, "gyro_links")) c.gyro_links = n("gyro_links");
+  if (has_table(schema_version_, "keyframe_depth")) c.keyframe_depths = n("keyframe_depth");
   return c;
 }
 

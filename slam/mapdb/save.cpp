@@ -51,6 +51,7 @@ SaveReport save_map(const map::Map& map, const MapMetadata& metadata, const fs::
     const map::Keyframe& kf = *map.keyframe(id);
     features.encode(id, kf.frame);
     w.features(features);
+    if (kf.depth) w.depth(id, *kf.depth);
     w.keyframe(KeyframeRow::of(kf));
     w.markers(id, kf.markers);
     w.observations(id, kf.frame.points);

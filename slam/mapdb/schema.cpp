@@ -75,6 +75,11 @@ const std::vector<TableSchema>& tables() {
        "next_id INTEGER NOT NULL, qx REAL, qy REAL, qz REAL, qw REAL, bias_jacobian BLOB NOT "
        "NULL, dt REAL)",
        3},
+      {"keyframe_depth", "keyframe_id, width, height, factor, depth, checksum", "keyframe_id",
+       "CREATE TABLE keyframe_depth (keyframe_id INTEGER PRIMARY KEY, width INTEGER NOT NULL, "
+       "height INTEGER NOT NULL, factor INTEGER NOT NULL, depth BLOB NOT NULL, checksum INTEGER "
+       "NOT NULL)",
+       4},
       {"erased_keyframes", "id, parent, cam_from_parent", "id",
        "CREATE TABLE erased_keyframes (id INTEGER PRIMARY KEY, parent INTEGER NOT NULL, "
        "cam_from_parent BLOB NOT NULL)",

@@ -1,7 +1,7 @@
 #pragma once
-// The map file's schema, version 3 (internal to slam/mapdb; documented in the README's "Map
-// database" section). Version 2 added `loop_edges`, version 3 `gravity_windows` and
-// `gyro_links`; an older file has every other table. Every
+// The map file's schema, version 4 (internal to slam/mapdb; documented in docs/formats/mapdb.md).
+// Version 2 added `loop_edges`, version 3 `gravity_windows` and `gyro_links`, version 4
+// `keyframe_depth`; an older file has every other table. Every
 // table is written and read with its columns in the order listed here: INSERT binds and SELECT
 // reads them in that order, which is also the order the content checksums hash them in.
 #include <cstdint>
@@ -37,5 +37,6 @@ constexpr std::size_t kKeypointRecordBytes = 36;
 constexpr std::size_t kDescriptorBytes = 32;
 constexpr std::size_t kPoseBytes = 56;
 constexpr std::size_t kBiasJacobianBytes = 72;  // 3 x 3 f64, row-major
+constexpr std::size_t kDepthPixelBytes = 2;     // u16 millimetres per pixel of keyframe_depth
 
 }  // namespace coloc::slam::mapdb::detail

@@ -20,6 +20,8 @@ void SyntheticMapOptions::check() const {
     throw Error("SyntheticMapOptions: depth_fraction not in [0, 1]");
   if (marker_every < 0 || erase_every < 0 || loop_edges < 0)
     throw Error("SyntheticMapOptions: marker_every / erase_every / loop_edges negative");
+  if (depth_factor < 0 || depth_factor > map::KeyframeDepth::kMaxFactor)
+    throw Error("SyntheticMapOptions: depth_factor not in 0..64");
 }
 
 std::shared_ptr<const frame::FrameGeometry> synthetic_geometry() {
@@ -147,6 +149,18 @@ void add_imu(map::Map& m, const std::vector<KeyframeId>& ids, Rng& rng) {
   }
 }
 
+map::KeyframeDepth random_depth(int factor, Rng& rng) {
+  map::KeyframeDepth d;
+  d.factor = factor;
+  d.width = 640 / factor;
+  d.height = 480 / factor;
+  d.millimetres.resize(static_cast<std::size_t>(d.width) * static_cast<std::size_t>(d.height));
+  std::uniform_int_distribution<int> mm(300, 6000);
+  for (std::uint16_t& v : d.millimetres)
+    v = uniform(rng, 0.0, 1.0) < 0.1 ? 0 : static_cast<std::uint16_t>(mm(rng));
+  return d;
+}
+
 }  // namespace
 
 map::Map make_synthetic_map(const SyntheticMapOptions& o,
@@ -168,6 +182,7 @@ map::Map make_synthetic_map(const SyntheticMapOptions& o,
       kf.markers = random_markers(rng);
       kf.marker_size = 0.15;
     }
+    if (o.depth_factor > 0 && i % 3 != 1) kf.depth = random_depth(o.depth_factor, rng);
     const KeyframeId id = m.add_keyframe(std::move(kf)).id;
     add_observations(m, o, id, tracks, rng);
     m.update_connections(id);

@@ -3,8 +3,8 @@
 // habit: the generator lives in the library). Built through the Map's own editing API, so it
 // has what a real run leaves behind: keyframes with ORB-like keypoints (random descriptors,
 // pyramid levels, depth and virtual right coordinates), points observed by several keyframes,
-// covisibility, a spanning tree, loop edges, markers, IMU measurements, and optionally erased
-// keyframes. The geometry
+// covisibility, a spanning tree, loop edges, markers, IMU measurements, and optionally depth
+// images and erased keyframes. The geometry
 // is meaningless (keypoints are random pixels); sizes and relations are what count.
 //
 // Keyframe k sits at x = 0.1 k metres in the world, looking along +z (cam_from_world).
@@ -34,6 +34,10 @@ struct SyntheticMapOptions {
   // store them, the second starting halfway; every seventh keyframe has no gravity window.
   // Made before erasing, so the links across erased keyframes are chained.
   bool imu = true;
+  // Depth images (Keyframe::depth) of the 640 x 480 frames downsampled by this factor, random
+  // millimetres with a tenth of the pixels invalid, on every keyframe but each third one (maps
+  // continued from an older file mix both). 0: none (`coloc bench mapdb` measures maps without).
+  int depth_factor = 0;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
 };

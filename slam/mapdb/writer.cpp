@@ -83,6 +83,8 @@ MapWriter::MapWriter(const std::filesystem::path& file, const SaveOptions& optio
   }
   delete_features_ = std::make_unique<Statement>(
       db_, "DELETE FROM keyframe_features WHERE keyframe_id = ?", "keyframe_features");
+  delete_depth_ = std::make_unique<Statement>(
+      db_, "DELETE FROM keyframe_depth WHERE keyframe_id = ?", "keyframe_depth");
 }
 
 Statement& MapWriter::begin_row(Table& t) {
@@ -146,10 +148,48 @@ void MapWriter::features(const EncodedFeatures& f) {
   feature_hashes_[f.id] = row_hash_.value();
 }
 
+void MapWriter::depth(KeyframeId keyframe, const map::KeyframeDepth& d) {
+  try {
+    d.check();
+  } catch (const Error& e) {
+    throw Error("save_map: keyframe " + std::to_string(keyframe.value()) + ": " + e.message(),
+                {.file = db_.path().string(), .field = "keyframe_depth"});
+  }
+  encode_u16s(d.millimetres, depth_);
+  // As for features: the row's own checksum names a damaged blob by its row.
+  const auto id = static_cast<std::int64_t>(keyframe.value());
+  ContentHash own;
+  own.integer(id);
+  own.integer(d.width);
+  own.integer(d.height);
+  own.integer(d.factor);
+  own.blob(depth_);
+  Table& t = tables_.at("keyframe_depth");
+  Statement& s = begin_row(t);
+  s.integer(id).integer(d.width).integer(d.height).integer(d.factor).blob(depth_);
+  s.integer(static_cast<std::int64_t>(own.value()));
+  t.insert.run();
+  t.insert.attach(nullptr);
+  // Folded into the table's checksum at finish(), over the rows that remain.
+  depth_hashes_[keyframe] = row_hash_.value();
+}
+
 std::size_t MapWriter::drop_features_except(const std::vector<KeyframeId>& keyframes) {
+  const auto kept = [&](KeyframeId k) {
+    return std::binary_search(keyframes.begin(), keyframes.end(), k);
+  };
+  for (auto it = depth_hashes_.begin(); it != depth_hashes_.end();) {
+    if (kept(it->first)) {
+      ++it;
+      continue;
+    }
+    delete_depth_->integer(static_cast<std::int64_t>(it->first.value()));
+    delete_depth_->run();
+    it = depth_hashes_.erase(it);
+  }
   std::size_t dropped = 0;
   for (auto it = feature_hashes_.begin(); it != feature_hashes_.end();) {
-    if (std::binary_search(keyframes.begin(), keyframes.end(), it->first)) {
+    if (kept(it->first)) {
       ++it;
       continue;
     }
@@ -330,6 +370,15 @@ void MapWriter::finish(KeyframeId first_keyframe, std::uint64_t next_keyframe_id
   for (const auto& [id, h] : feature_hashes_)
     features.hash.fold(h);
   features.rows = feature_hashes_.size();
+  Table& depth = tables_.at("keyframe_depth");
+  for (const auto& [id, h] : depth_hashes_) {
+    if (!feature_hashes_.count(id))
+      throw Error("save_map: depth of a keyframe that is not saved: " + std::to_string(id.value()),
+                  {.file = db_.path().string(), .field = "keyframe_depth"});
+    depth.hash.fold(h);
+  }
+  depth.rows = depth_hashes_.size();
+  counts_.keyframe_depths = depth.rows;
 
   MetadataEntries entries = metadata_entries(metadata_);
   entries["coloc_version"] = COLOC_VERSION;
@@ -351,6 +400,7 @@ void MapWriter::finish(KeyframeId first_keyframe, std::uint64_t next_keyframe_id
   db_.exec("COMMIT");
   tables_.clear();
   delete_features_.reset();
+  delete_depth_.reset();
   db_.close();
 }
 

@@ -63,10 +63,14 @@ class MapWriter {
 
   // keyframe_features rows may come ahead of their keyframes (save_live_map) and be dropped.
   void features(const EncodedFeatures& features);
-  // Deletes the features rows of keyframes not in `keyframes` (sorted): erased meanwhile.
-  // Returns how many were dropped.
+  // Deletes the features (and depth) rows of keyframes not in `keyframes` (sorted): erased
+  // meanwhile. Returns how many keyframes' features were dropped.
   std::size_t drop_features_except(const std::vector<KeyframeId>& keyframes);
   bool has_features(KeyframeId keyframe) const { return feature_hashes_.count(keyframe) > 0; }
+  // The keyframe's keyframe_depth row: written with its features (never changed once the
+  // keyframe is in the Map), so like them it may come ahead of its keyframe and be dropped by
+  // drop_features_except(). Throws if `depth` fails its check().
+  void depth(KeyframeId keyframe, const map::KeyframeDepth& depth);
   // The keyframes row, and the keyframe's gravity_windows and gyro_links rows if it has them.
   void keyframe(const KeyframeRow& row);
   void markers(KeyframeId keyframe, std::span<const markers::MarkerObservation> observations);
@@ -84,7 +88,7 @@ class MapWriter {
   void point(const PointRow& row);
   void erased(KeyframeId keyframe, const map::ErasedKeyframe& erased);
   // Writes the metadata (with counts and checksums), commits and closes the file. Throws if a
-  // keyframe has no features row or the features of a missing keyframe remain.
+  // keyframe has no features row or the features or depth of a missing keyframe remain.
   void finish(KeyframeId first_keyframe, std::uint64_t next_keyframe_id,
               std::uint64_t next_point_id);
 
@@ -111,12 +115,13 @@ class MapWriter {
   MapMetadata metadata_;
   ContentHash row_hash_;
   std::map<std::string, Table> tables_;
-  std::unique_ptr<Statement> delete_features_;
+  std::unique_ptr<Statement> delete_features_, delete_depth_;
   std::unordered_map<const frame::FrameGeometry*, std::int64_t> camera_ids_;
   std::vector<std::shared_ptr<const frame::FrameGeometry>> cameras_;  // kept alive
   std::map<KeyframeId, std::uint64_t> feature_hashes_;                // row hash per features row
+  std::map<KeyframeId, std::uint64_t> depth_hashes_;                  // and per depth row
   std::vector<KeyframeId> keyframe_ids_;
-  Bytes pose_, descriptor_;
+  Bytes pose_, descriptor_, depth_;
   MapCounts counts_;
 };
 

@@ -61,6 +61,9 @@ void TrackingOptions::check() const {
     throw Error("TrackingOptions.keyframe_defer_deviation_max must be >= 0");
   if (reloc_pause_min_inliers < 0)
     throw Error("TrackingOptions.reloc_pause_min_inliers must be >= 0");
+  if (keyframe_depth_factor < 0 || keyframe_depth_factor > map::KeyframeDepth::kMaxFactor)
+    throw Error("TrackingOptions.keyframe_depth_factor must be in 0.." +
+                std::to_string(map::KeyframeDepth::kMaxFactor) + " (0 = none)");
   relocalization.check();
 }
 
@@ -127,6 +130,7 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
   const cv::Mat grey = to_grey(image, options_.rgb_input);
   current_ = frame::Frame(frame_ids_.next(), timestamp, extractor_.extract(grey, &camera_), depth,
                           geometry_);
+  current_depth_ = depth;
   result.extract_ms = watch.elapsed_ms();
   watch.restart();
   pose_rate_ = Eigen::Vector3d::Zero();
@@ -167,6 +171,7 @@ TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double
   } else {
     last_ = frame::Frame();
   }
+  current_depth_.release();
   result.track_ms = watch.elapsed_ms() - result.wait_ms;
   spdlog::debug("tracking: frame {} state {} inliers {} keyframe {}", current_.id.value(),
                 to_string(state_), matches_inliers_, result.keyframe);
@@ -586,6 +591,12 @@ KeyframeId Tracker::add_current_keyframe() {
   map::Keyframe kf;
   kf.id = shared_.map.next_keyframe_id();
   kf.frame = current_;
+  if (options_.keyframe_depth_factor > 0 && current_depth_.type() == CV_32FC1 &&
+      !current_depth_.empty() && current_depth_.cols >= options_.keyframe_depth_factor &&
+      current_depth_.rows >= options_.keyframe_depth_factor)
+    kf.depth =
+        map::downsample_depth(current_depth_.ptr<float>(), current_depth_.cols, current_depth_.rows,
+                              current_depth_.step1(), options_.keyframe_depth_factor);
   // While the readout is estimated, a keyframe is compensated with the rate of its poses, not
   // the one refined from its rows' shear: a refined rate fits the shear at whatever readout
   // tracking had (rate x readout is what the image shows), so a map of such keyframes looks

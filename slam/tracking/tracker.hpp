@@ -136,6 +136,10 @@ struct TrackingOptions {
   // unless (ours) tracking is thinning out: fewer local-map inliers than this. A continued map
   // is left at once for unmapped space, where that pause lost tracking.
   int reloc_pause_min_inliers = 100;
+  // A keyframe keeps its frame's depth image downsampled by this factor (map::KeyframeDepth;
+  // 640 x 480 -> 160 x 120, ~38 KB per keyframe at 4), so that a saved map registers to a scan
+  // without the recording it was built from. 0: keep none.
+  int keyframe_depth_factor = 4;
   reloc::RelocalizationOptions relocalization;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
@@ -237,6 +241,9 @@ class Tracker {
   IdIssuer<FrameId> frame_ids_;
   TrackingState state_ = TrackingState::kNotInitialized;
   frame::Frame current_, last_;
+  // current_'s depth image (CV_32FC1 metres; the caller's, not copied), for the keyframe made
+  // from it (add_current_keyframe); released when track() returns.
+  cv::Mat current_depth_;
   SE3 velocity_;  // current_from_last of the last two tracked frames
   bool has_velocity_ = false;
   KeyframeId reference_;

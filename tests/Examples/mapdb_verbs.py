@@ -84,7 +84,7 @@ def main():
         # Loop edges (schema 2): one row per direction, each closure once by the README's query.
         loops = con.execute("SELECT keyframe_id, other_id FROM loop_edges "
                             "WHERE keyframe_id < other_id ORDER BY keyframe_id").fetchall()
-        ok &= check(15, info["schema_version"] == 3 and info["loop_edges"] > 0
+        ok &= check(15, info["schema_version"] == 4 and info["loop_edges"] > 0
                     and len(loops) * 2 == info["loop_edges"]
                     == con.execute("SELECT COUNT(*) FROM loop_edges").fetchone()[0])
         # The IMU's measurements (schema 3) by recording, by the README's query: the synthetic
@@ -106,7 +106,7 @@ def main():
         print("damaged:", v.returncode, v.stdout.strip())
         tables = ("metadata", "cameras", "keyframes", "keyframe_features", "markers",
                   "map_points", "observations", "covisibility", "loop_edges", "gravity_windows",
-                  "gyro_links", "erased_keyframes")
+                  "gyro_links", "keyframe_depth", "erased_keyframes")
         ok &= check(11, v.returncode == 1 and "bad.db" in v.stdout
                     and any(t in v.stdout for t in tables))
 

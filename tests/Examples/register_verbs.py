@@ -3,13 +3,16 @@
 The registered map is in the scan's frame and carries its provenance; --only-markers and
 --ignore-markers choose the scanned markers (an unknown id is an error naming the option), too
 few markers is an error that names them, and a failed registration leaves an existing output
-file untouched.
+file untouched. Without markers the map registers from the map file alone: its keyframes store
+their depth images (schema 4), so no --sequence is given.
 
 Exit 0 on success, 1 on failure.
 """
 import argparse
 import json
 import os
+import shutil
+import sqlite3
 import subprocess
 import sys
 import tempfile
@@ -24,6 +27,40 @@ def check(name, condition):
 
 def run(cmd):
     return subprocess.run(cmd, capture_output=True, text=True, check=False)
+
+
+def text_hash(h, text):
+    """Folds a text value into a content hash (docs/formats/mapdb.md, "Checksums")."""
+    mask = (1 << 64) - 1
+
+    def word(h, w):
+        h = ((h ^ w) * 0x9e3779b97f4a7c15) & mask
+        return h ^ (h >> 29)
+
+    data = text.encode()
+    h = word(word(h, 3), len(data))  # tag 3: text, then the length
+    for i in range(0, len(data), 8):
+        h = word(h, int.from_bytes(data[i:i + 8], "little"))
+    return h
+
+
+def make_schema3(path, out):
+    """A copy of a map file as schema 3 wrote it: no keyframe_depth table, the metadata's
+    checksum (of every entry but the checksums, in key order) recomputed."""
+    shutil.copyfile(path, out)
+    con = sqlite3.connect(out)
+    con.execute("DROP TABLE keyframe_depth")
+    con.execute("DELETE FROM metadata WHERE key IN ('count.keyframe_depth', "
+                "'checksum.keyframe_depth')")
+    h = 0x636f6c6f632d6d61
+    rows = con.execute("SELECT key, value FROM metadata").fetchall()
+    for key, value in sorted(rows, key=lambda r: r[0].encode()):
+        if not key.startswith("checksum."):
+            h = text_hash(text_hash(h, key), value)
+    con.execute("UPDATE metadata SET value = ? WHERE key = 'checksum.metadata'", (f"{h:016x}",))
+    con.execute("PRAGMA user_version = 3")
+    con.commit()
+    con.close()
 
 
 def make_map(coloc, tmp):
@@ -99,8 +136,14 @@ def main():
 
         # Without markers (level surface, the default): the map's dense cloud onto the scan, from
         # the markers' rigid transform moved by 5 cm (a user's --initial), then the BA against
-        # the scan's surface. The written map is in the scan's frame and its keyframes land
-        # within 1 cm of where the markers put them.
+        # the scan's surface. The keyframes' depth comes from the map file (no --sequence). The
+        # written map is in the scan's frame and its keyframes land within 1 cm of where the
+        # markers put them.
+        map_info = json.loads(run([coloc, "mapdb", "info", os.path.join(tmp, "map.db"),
+                                   "--json"]).stdout)
+        ok &= check("every keyframe stores its depth",
+                    map_info["schema_version"] == 4
+                    and map_info["keyframe_depths"] == map_info["keyframes"] > 0)
         t = summary["scan_from_slam"]
         qx, qy, qz, qw = t["quaternion_xyzw"]
         rot = [[1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
@@ -116,12 +159,13 @@ def main():
         scan = os.path.join(tmp, "twin", "scan", "scan.e57")
         sequence = os.path.join(tmp, "twin", "sequence")
         r = run([coloc, "register", "--map", os.path.join(tmp, "map.db"), "--scan", scan,
-                 "--sequence", sequence, "--initial", initial, "--out", cloud_out, "--json"])
+                 "--initial", initial, "--out", cloud_out, "--json"])
         if check("register without markers", r.returncode == 0):
             cloud = json.loads(r.stdout)
             print("level surface:", {k: cloud[k] for k in ("fitness", "inlier_rmse_m", "overlap")},
                   "rounds:", cloud["surface"]["rounds"])
             ok &= check("level surface", cloud["level"] == "surface" and cloud["fitness"] > 0.35)
+            ok &= check("depth from the map", cloud["depth_source"] == "map")
             rounds = cloud["surface"]["rounds"]
             ok &= check("the surface BA brings the map's depth onto the scan",
                         rounds[-1]["median_distance_m"][1] < rounds[0]["median_distance_m"][0]
@@ -143,9 +187,16 @@ def main():
                         errors["cloud"] < max(errors["markers"] + 0.01, 0.02))
         else:
             print(r.stderr[-2000:])
-        r = run([coloc, "register", "--map", os.path.join(tmp, "map.db"), "--scan", scan,
-                 "--out", os.path.join(tmp, "nothing.db")])
-        ok &= check("no markers needs the recording", r.returncode == 1 and "--sequence" in r.stderr)
+        r = run([coloc, "register", "--map", os.path.join(tmp, "map.db"), "--out",
+                 os.path.join(tmp, "nothing.db")])
+        ok &= check("no markers needs the scan", r.returncode == 1 and "--scan" in r.stderr)
+        # A map without stored depth (schema 3, or made so) still needs the recording: the
+        # registered map is saved with depth too, so the test takes a schema-3 copy of it.
+        old = os.path.join(tmp, "schema3.db")
+        make_schema3(os.path.join(tmp, "map.db"), old)
+        r = run([coloc, "register", "--map", old, "--scan", scan, "--out",
+                 os.path.join(tmp, "nothing.db")])
+        ok &= check("no depth needs the recording", r.returncode == 1 and "--sequence" in r.stderr)
     return 0 if ok else 1
 
 

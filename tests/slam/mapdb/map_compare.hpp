@@ -125,6 +125,8 @@ inline std::string keyframe_difference(const map::Keyframe& a, const map::Keyfra
   if (a.loop_edges != b.loop_edges) return "loop_edges";
   if (!same_value(a.marker_size, b.marker_size)) return "marker_size";
   if (const std::string d = inertial_difference(a, b); !d.empty()) return d;
+  if (a.depth.has_value() != b.depth.has_value()) return "depth image presence";
+  if (a.depth && !(*a.depth == *b.depth)) return "depth image";
   if (a.markers.size() != b.markers.size()) return "marker count";
   for (std::size_t i = 0; i < a.markers.size(); ++i) {
     const auto& p = a.markers[i];

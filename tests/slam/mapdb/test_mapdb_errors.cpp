@@ -55,7 +55,7 @@ bool names_a_table(const std::string& message) {
   for (const char* t :
        {"metadata", "cameras", "keyframes", "keyframe_features", "markers", "map_points",
         "observations", "covisibility", "loop_edges", "gravity_windows", "gyro_links",
-        "erased_keyframes", "user_version", "application_id", "sqlite_master"}) {
+        "keyframe_depth", "erased_keyframes", "user_version", "application_id", "sqlite_master"}) {
     if (message.find(t) != std::string::npos) return true;
   }
   return false;
@@ -332,6 +332,80 @@ TEST_F(MapDbErrors, BrokenGyroLinksNameTableColumnAndRow) {
   e = load_error(late);
   EXPECT_NE(e.find("gravity_windows.recording"), std::string::npos) << e;
   EXPECT_NE(e.find(row), std::string::npos) << e;
+}
+
+// Damaged keyframe_depth rows (edited in the shell): each is an error naming the file, the
+// column and the keyframe, from load and verify alike, never a crash or a huge allocation.
+TEST_F(MapDbErrors, BrokenKeyframeDepthNamesTableColumnAndRow) {
+  KeyframeId with_depth;
+  for (const auto& [id, kf] : map_.keyframes()) {
+    if (kf.depth && id != map_.first_keyframe() && (!with_depth.valid() || id < with_depth))
+      with_depth = id;
+  }
+  ASSERT_TRUE(with_depth.valid());
+  const std::string id = std::to_string(with_depth.value());
+  const std::string where = " WHERE keyframe_id = " + id;
+  struct Case {
+    const char* name;
+    std::string edit;
+    const char* column;
+  };
+  const std::vector<Case> cases = {
+      {"short", "UPDATE keyframe_depth SET depth = substr(depth, 1, 10)" + where, "depth"},
+      {"odd", "UPDATE keyframe_depth SET depth = depth || X'00'" + where, "depth"},
+      {"zero_width", "UPDATE keyframe_depth SET width = 0" + where, "width"},
+      {"huge", "UPDATE keyframe_depth SET width = 1000000, height = 1000000" + where, "width"},
+      {"negative", "UPDATE keyframe_depth SET height = -80" + where, "height"},
+      {"factor_zero", "UPDATE keyframe_depth SET factor = 0" + where, "factor"},
+      {"larger_than_image", "UPDATE keyframe_depth SET factor = 16" + where, "width"},
+      {"flipped", "UPDATE keyframe_depth SET depth = zeroblob(length(depth))" + where, "checksum"},
+      {"orphan", "UPDATE keyframe_depth SET keyframe_id = 999" + where, "keyframe_id"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const fs::path p = copy(std::string("depth_") + c.name + ".db");
+    sql(p, c.edit);
+    const std::string e = load_error(p);
+    EXPECT_NE(e.find(p.string()), std::string::npos) << e;
+    EXPECT_NE(e.find(std::string("keyframe_depth.") + c.column), std::string::npos) << e;
+    EXPECT_NE(e.find("row " + (std::string(c.name) == "orphan" ? "999" : id)), std::string::npos)
+        << e;
+    const VerifyReport v = verify_map(p);
+    ASSERT_FALSE(v.ok());
+    EXPECT_NE(v.problems.back().find(std::string("keyframe_depth.") + c.column), std::string::npos)
+        << v.problems.back();
+  }
+  // A whole row deleted: the table's count says so.
+  const fs::path deleted = copy("depth_deleted.db");
+  sql(deleted, "DELETE FROM keyframe_depth" + where);
+  const std::string e = load_error(deleted);
+  EXPECT_NE(e.find("keyframe_depth"), std::string::npos) << e;
+  EXPECT_NE(e.find("rows where the metadata says"), std::string::npos) << e;
+}
+
+// A depth image that fails its check is refused by the save, naming the table and keyframe;
+// the previous file stays.
+TEST_F(MapDbErrors, InvalidKeyframeDepthIsNotSaved) {
+  map::Map broken = map_;
+  KeyframeId id;
+  broken.for_each_keyframe([&](map::Keyframe& kf) {
+    if (!id.valid() && kf.depth) {
+      kf.depth->millimetres.pop_back();
+      id = kf.id;
+    }
+  });
+  ASSERT_TRUE(id.valid());
+  const std::vector<char> before = read_bytes(good_);
+  try {
+    save_map(broken, test::test_metadata(), good_);
+    ADD_FAILURE() << "saved";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("keyframe_depth"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("keyframe " + std::to_string(id.value())),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(read_bytes(good_), before);
 }
 
 TEST_F(MapDbErrors, FailedSaveKeepsThePreviousFile) {

@@ -44,6 +44,12 @@ std::size_t gyro_rows(const map::Map& m) {
     n += kf.gyro ? 1 : 0;
   return n;
 }
+std::size_t depth_rows(const map::Map& m) {
+  std::size_t n = 0;
+  for (const auto& [id, kf] : m.keyframes())
+    n += kf.depth ? 1 : 0;
+  return n;
+}
 
 // Turns a map file this build wrote into the file an older schema version was: the tables
 // added after it dropped with their count/checksum entries (metadata checksum recomputed), the
@@ -84,6 +90,7 @@ map::Map as_schema_version(map::Map m, int version) {
       kf.gravity.reset();
       kf.gyro.reset();
     }
+    if (version < 4) kf.depth.reset();
   });
   return m;
 }
@@ -134,6 +141,9 @@ TEST(MapDb, SaveLoadIsIdenticalFieldByField) {
   ASSERT_GT(loop_edge_rows(original), 0u);
   ASSERT_GT(gravity_rows(original), 0u);
   ASSERT_GT(gyro_rows(original), 0u);
+  // Some keyframes with a depth image, some without (as in a map continued from an old file).
+  ASSERT_GT(depth_rows(original), 0u);
+  ASSERT_LT(depth_rows(original), original.keyframe_count());
   ASSERT_EQ(test_support::map_problem(original), "");
   const auto path = testing::temp_dir("mapdb_roundtrip") / "map.db";
   const MapMetadata metadata = test::test_metadata();
@@ -147,6 +157,7 @@ TEST(MapDb, SaveLoadIsIdenticalFieldByField) {
   EXPECT_EQ(info.counts.loop_edges, loop_edge_rows(original));
   EXPECT_EQ(info.counts.gravity_windows, gravity_rows(original));
   EXPECT_EQ(info.counts.gyro_links, gyro_rows(original));
+  EXPECT_EQ(info.counts.keyframe_depths, depth_rows(original));
 
   LoadedMap loaded = load_map(path, test_support::vocabulary());
   EXPECT_EQ(map_difference(original, loaded.map), "");
@@ -176,12 +187,13 @@ TEST(MapDb, SaveLoadIsIdenticalFieldByField) {
 }
 
 // Files of older schema versions still load and verify, without what they did not store
-// (version 1: loop edges; version 2: the IMU's measurements); saving one again writes the
-// current version.
+// (version 1: loop edges; version 2: the IMU's measurements; version 3: the keyframes' depth
+// images); saving one again writes the current version.
 TEST(MapDb, OlderSchemaVersionsLoadWithoutWhatTheyLacked) {
   const map::Map original = test::small_map(6, 24);
   ASSERT_GT(loop_edge_rows(original), 0u);
   ASSERT_GT(gyro_rows(original), 0u);
+  ASSERT_GT(depth_rows(original), 0u);
   const fs::path dir = testing::temp_dir("mapdb_older");
   for (int version = 1; version < kSchemaVersion; ++version) {
     SCOPED_TRACE("schema version " + std::to_string(version));
@@ -191,7 +203,8 @@ TEST(MapDb, OlderSchemaVersionsLoadWithoutWhatTheyLacked) {
     const MapInfo info = read_map_info(path);
     EXPECT_EQ(info.schema_version, version);
     EXPECT_EQ(info.counts.loop_edges, version >= 2 ? loop_edge_rows(original) : 0u);
-    EXPECT_EQ(info.counts.gyro_links, 0u);
+    EXPECT_EQ(info.counts.gyro_links, version >= 3 ? gyro_rows(original) : 0u);
+    EXPECT_EQ(info.counts.keyframe_depths, 0u);
     EXPECT_EQ(info.counts.keyframes, original.keyframe_count());
     const VerifyReport v = verify_map(path, &test_support::vocabulary());
     EXPECT_TRUE(v.ok()) << (v.problems.empty() ? "" : v.problems.front());
@@ -282,6 +295,7 @@ KeyframeId add_copy(map::Map& m, KeyframeId from) {
   map::Keyframe kf;
   kf.id = m.next_keyframe_id();
   kf.frame = m.keyframe(from)->frame;
+  kf.depth = m.keyframe(from)->depth;
   std::fill(kf.frame.points.begin(), kf.frame.points.end(), MapPointId::invalid());
   const KeyframeId id = m.add_keyframe(std::move(kf)).id;
   const std::vector<MapPointId> shared = m.keyframe(from)->frame.points;
@@ -353,6 +367,7 @@ TEST(MapDb, LiveSaveIsConsistentWhileAnotherThreadEditsTheMap) {
     if (!now) continue;
     EXPECT_EQ(kf.frame.features.descriptors, now->frame.features.descriptors);
     EXPECT_EQ(kf.frame.depth, now->frame.depth);
+    EXPECT_EQ(kf.depth, now->depth);
     ++compared;
   }
   EXPECT_GT(compared, 10u);
