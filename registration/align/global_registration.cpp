@@ -225,7 +225,12 @@ SE3 refine(const std::vector<Level>& levels, SE3 t, const GlobalRegistrationOpti
       Eigen::Matrix<double, 6, 6> h = Eigen::Matrix<double, 6, 6>::Zero();
       Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
       std::size_t used = 0;
-      for (const NormalPoint& p : map) {
+      // A large map's points are taken evenly, at most icp_max_points per iteration: six
+      // parameters need thousands of point-to-plane rows, not millions.
+      const std::size_t stride =
+          std::max<std::size_t>(1, map.size() / static_cast<std::size_t>(o.icp_max_points));
+      for (std::size_t i = 0; i < map.size(); i += stride) {
+        const NormalPoint& p = map[i];
         const Eigen::Vector3d q = t * xyz(p);
         const int nearest = grid.nearest(q, nullptr);
         if (nearest < 0) continue;
@@ -293,6 +298,7 @@ void GlobalRegistrationOptions::check() const {
     throw Error("must be in (0, 1)", {.field = "edge_similarity"});
   if (hypotheses < 1) throw Error("must be >= 1", {.field = "hypotheses"});
   if (icp_voxels.empty()) throw Error("at least one ICP level", {.field = "icp_voxels"});
+  if (icp_max_points < 100) throw Error("must be >= 100", {.field = "icp_max_points"});
   for (double v : icp_voxels)
     if (!positive(v)) throw Error("must be positive", {.field = "icp_voxels"});
   if (!(min_fitness > 0.0 && min_fitness <= 1.0))

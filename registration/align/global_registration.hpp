@@ -41,6 +41,7 @@ struct GlobalRegistrationOptions {
   int hypotheses = 8;            // distinct proposals refined and compared
   std::vector<double> icp_voxels = {0.05, 0.02};  // coarse to fine (metres)
   int icp_iterations = 30;                        // per level
+  int icp_max_points = 60000;  // map points per ICP iteration, taken evenly (large maps)
   // Share of map points within the inlier distance of the scan after the refinement. Right fits
   // measured 0.75-0.82 (twin room and building, 7-Scenes halves); the twin room's map in the
   // twin building's scan (a similar room with the same wall textures elsewhere) 0.40.
