@@ -61,7 +61,7 @@ LevelResult evaluate(const std::string& level, const fs::path& file,
   out.level = level;
   out.file = file;
   const slam::mapdb::LoadedMap loaded =
-      slam::mapdb::load_map(file, vocabulary, {.rebuild_bow = false});
+      slam::mapdb::load_map(file, vocabulary, {.rebuild_bow = false, .keyframe_depth = false});
   if (loaded.metadata.frame_name != "scan") {
     throw Error("the map is in frame '" + loaded.metadata.frame_name +
                     "', not the scan's: register it first (coloc register)",

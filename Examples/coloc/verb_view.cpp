@@ -115,8 +115,9 @@ void run_view(const StaticViewArgs& a) {
   slam::mapdb::LoadedMap loaded;
   {
     RowProgress progress("loading the map", a.json);
-    loaded = slam::mapdb::load_map(a.map, vocabulary,
-                                   {.rebuild_bow = false, .progress = progress.callback()});
+    loaded = slam::mapdb::load_map(
+        a.map, vocabulary,
+        {.rebuild_bow = false, .keyframe_depth = false, .progress = progress.callback()});
     progress.finish();
   }
   view::MapScene scene = view::scene_of(loaded.map);

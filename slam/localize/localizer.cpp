@@ -30,7 +30,9 @@ std::unique_ptr<LocalizationMap> load_localization_map(const std::filesystem::pa
   if (!options.rebuild_bow)
     throw Error("load_localization_map: relocalization needs the BoW database",
                 {.file = path.string(), .field = "LoadOptions.rebuild_bow"});
-  mapdb::LoadedMap loaded = mapdb::load_map(path, vocabulary, options);
+  mapdb::LoadOptions o = options;
+  o.keyframe_depth = false;  // tracking needs none: resident memory stays what tracking needs
+  mapdb::LoadedMap loaded = mapdb::load_map(path, vocabulary, o);
   if (loaded.map.keyframe_count() == 0)
     throw Error("the map holds no keyframe to localize in",
                 {.file = path.string(), .field = "keyframes"});

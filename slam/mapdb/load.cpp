@@ -458,7 +458,7 @@ void Loader::read_gyro_links() {
 // Schema version 4 on: each keyframe's small depth image. Sizes are checked before the blob is
 // touched, so a damaged row is an error naming it, never a huge allocation or a read past it.
 void Loader::read_keyframe_depth() {
-  if (!has_table(file_.schema_version(), "keyframe_depth")) return;
+  if (!options_.keyframe_depth || !has_table(file_.schema_version(), "keyframe_depth")) return;
   TableReader t(file_, "keyframe_depth");
   while (t.next()) {
     Statement& s = t.row();

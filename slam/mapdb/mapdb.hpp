@@ -120,6 +120,10 @@ struct LoadOptions {
   int cache_mib = 8;        // SQLite page cache while reading
   bool rebuild_bow = true;  // BoW vectors and database (the vocabulary's transform per keyframe)
   int threads = 0;          // for the BoW vectors, the slowest part (0: one per core)
+  // The keyframes' small depth images (schema 4; about 38 KB a keyframe). A localizer needs
+  // none of them, so it leaves them in the file (and unchecked); a map loaded without them must
+  // not be saved over one that has them.
+  bool keyframe_depth = true;
   ProgressFn progress;
   void check() const;
 };

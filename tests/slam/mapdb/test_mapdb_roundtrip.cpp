@@ -159,6 +159,16 @@ TEST(MapDb, SaveLoadIsIdenticalFieldByField) {
   EXPECT_EQ(info.counts.gyro_links, gyro_rows(original));
   EXPECT_EQ(info.counts.keyframe_depths, depth_rows(original));
 
+  // A localizer's load leaves the depth images in the file, and nothing else.
+  {
+    LoadOptions without_depth;
+    without_depth.keyframe_depth = false;
+    const LoadedMap light = load_map(path, test_support::vocabulary(), without_depth);
+    EXPECT_EQ(depth_rows(light.map), 0u);
+    EXPECT_EQ(light.map.keyframe_count(), original.keyframe_count());
+    EXPECT_EQ(light.map.point_count(), original.point_count());
+  }
+
   LoadedMap loaded = load_map(path, test_support::vocabulary());
   EXPECT_EQ(map_difference(original, loaded.map), "");
   EXPECT_EQ(map_difference(loaded.map, original), "");
