@@ -277,6 +277,47 @@ std::vector<SE3> probes(const SE3& winner, const Cloud& map, bool gravity) {
   return out;
 }
 
+// Whether `a`'s colours agree with the scan's clearly better than `b`'s (GlobalRegistrationOptions:
+// min_colour_correlation, colour_margin).
+bool better_coloured(const Scored& a, const Scored& b, const GlobalRegistrationOptions& o) {
+  return std::isfinite(a.colour_correlation) && a.colour_correlation >= o.min_colour_correlation &&
+         (!std::isfinite(b.colour_correlation) ||
+          a.colour_correlation - b.colour_correlation >= o.colour_margin);
+}
+
+// The best of `refined` (sorted by fitness, best first) and its runner-up, both refined on
+// every level and judged on the finest: at the coarse level's generous inlier distance a shift
+// along a large wall still looks good; at the finest it does not, unless the space really
+// repeats. The runner-up is the better of the best two far from the winner (none with a guess:
+// the user vouches for the basin). Of two that fit the shape nearly alike, the one whose
+// colours agree wins.
+std::pair<Scored, std::optional<Scored>> judge_best(const std::vector<Scored>& refined,
+                                                    const std::vector<Level>& levels,
+                                                    const GlobalRegistrationOptions& o,
+                                                    bool from_initial) {
+  const Level& finest = levels.back();
+  const NearestGrid fine_grid(*finest.scan, o.inlier_factor * o.icp_voxels[levels.size() - 1]);
+  const auto judge = [&](const SE3& t) {
+    return score(*finest.map, *finest.scan, fine_grid, refine(levels, t, o, levels.size()));
+  };
+  Scored winner = judge(refined.front().scan_from_map);
+  int rivals = from_initial ? 2 : 0;
+  std::optional<Scored> runner_up;
+  for (const Scored& s : refined) {
+    if (rivals == 2) break;
+    if (!distinct(s.scan_from_map, winner.scan_from_map, o)) continue;
+    ++rivals;
+    const Scored rival = judge(s.scan_from_map);
+    if (distinct(rival.scan_from_map, winner.scan_from_map, o) &&
+        (!runner_up || rival.fitness > runner_up->fitness))
+      runner_up = rival;
+  }
+  if (runner_up && runner_up->fitness >= o.ambiguity * winner.fitness &&
+      better_coloured(*runner_up, winner, o))
+    std::swap(winner, *runner_up);
+  return {winner, runner_up};
+}
+
 std::string figures(const Scored& s, double runner_up) {
   std::ostringstream out;
   out.precision(3);
@@ -404,6 +445,7 @@ GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
   if (levels.empty())
     throw Error("too few points on the ICP grids to refine", {.field = "registration"});
   std::vector<Scored> refined;
+  refined.reserve(proposals.size() + 9);  // and the probes
   for (const SE3& t : proposals)
     refined.push_back(score(*map, *scan, scan_grid, refine(levels, t, o, 1)));
   std::sort(refined.begin(), refined.end(),
@@ -411,40 +453,10 @@ GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
   for (const SE3& t :
        initial ? std::vector<SE3>{} : probes(refined.front().scan_from_map, *map, o.gravity))
     refined.push_back(score(*map, *scan, scan_grid, refine(levels, t, o, 1)));
-  // The best of proposals and probes (a probe may find a better fit than every proposal), and
-  // the best two far from it, refined on every level and judged there: at the coarse level's
-  // generous inlier distance a shift along a large wall still looks good; at the finest it
-  // does not, unless the space really repeats.
+  // The best of proposals and probes (a probe may find a better fit than every proposal).
   std::stable_sort(refined.begin(), refined.end(),
                    [](const Scored& a, const Scored& b) { return a.fitness > b.fitness; });
-  const Level& finest = levels.back();
-  const NearestGrid fine_grid(*finest.scan, o.inlier_factor * o.icp_voxels[levels.size() - 1]);
-  const auto judge = [&](const SE3& t) {
-    return score(*finest.map, *finest.scan, fine_grid, refine(levels, t, o, levels.size()));
-  };
-  Scored winner = judge(refined.front().scan_from_map);
-  // With a guess the user vouches for the basin: only the fit is judged, not its uniqueness.
-  int rivals = initial ? 2 : 0;
-  std::optional<Scored> runner_up;
-  for (const Scored& s : refined) {
-    if (rivals == 2) break;
-    if (!distinct(s.scan_from_map, winner.scan_from_map, o)) continue;
-    ++rivals;
-    const Scored rival = judge(s.scan_from_map);
-    if (distinct(rival.scan_from_map, winner.scan_from_map, o) &&
-        (!runner_up || rival.fitness > runner_up->fitness))
-      runner_up = rival;
-  }
-  // Of two solutions that fit the shape nearly alike, the one whose colours agree wins.
-  const auto better_coloured = [&](const Scored& a, const Scored& b) {
-    return std::isfinite(a.colour_correlation) &&
-           a.colour_correlation >= o.min_colour_correlation &&
-           (!std::isfinite(b.colour_correlation) ||
-            a.colour_correlation - b.colour_correlation >= o.colour_margin);
-  };
-  if (runner_up && runner_up->fitness >= o.ambiguity * winner.fitness &&
-      better_coloured(*runner_up, winner))
-    std::swap(winner, *runner_up);
+  const auto [winner, runner_up] = judge_best(refined, levels, o, initial.has_value());
   if (runner_up) {
     report.runner_up = runner_up->fitness;
     report.runner_up_colour_correlation = runner_up->colour_correlation;
@@ -483,7 +495,7 @@ GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
                 {.field = "registration"});
   // A rival that fits the shape nearly as well is told apart by the colours when they agree
   // clearly better at the winner (a symmetric room whose walls differ in what hangs on them).
-  const bool colours_decide = !runner_up || better_coloured(winner, *runner_up);
+  const bool colours_decide = !runner_up || better_coloured(winner, *runner_up, o);
   report.decided_by_colour = report.runner_up >= o.ambiguity * winner.fitness && colours_decide;
   if (report.runner_up >= o.ambiguity * winner.fitness && !colours_decide)
     throw Error("ambiguous: another transform, far from the best, fits the map nearly as well (" +

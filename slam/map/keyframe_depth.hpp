@@ -35,8 +35,8 @@ struct KeyframeDepth {
   }
   // The full-resolution pixel small pixel (u, v) stands for.
   Eigen::Vector2d full_pixel(int u, int v) const {
-    return {static_cast<double>(factor * u + factor / 2),
-            static_cast<double>(factor * v + factor / 2)};
+    const int half = factor / 2;  // whole pixels: the block's middle pixel, as stored
+    return {static_cast<double>(factor * u + half), static_cast<double>(factor * v + half)};
   }
   bool operator==(const KeyframeDepth&) const = default;
   // Throws coloc::Error naming the first invalid field (sides 1..kMaxSide, factor
