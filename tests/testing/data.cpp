@@ -20,6 +20,12 @@ std::filesystem::path shared_data(const std::filesystem::path& relative) {
   return std::filesystem::exists(p) ? p : std::filesystem::path{};
 }
 
+std::filesystem::path source_file(const std::filesystem::path& relative) {
+  if (const char* env = std::getenv("COLOC_SOURCE_DIR"); env != nullptr && *env != '\0')
+    return std::filesystem::path(env) / relative;
+  return std::filesystem::path(COLOC_SOURCE_DIR) / relative;
+}
+
 std::filesystem::path temp_dir(const std::string& name) {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
   // ctest runs every test in its own process, several at once: the process id keeps two

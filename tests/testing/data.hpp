@@ -11,6 +11,10 @@ std::filesystem::path shared_data_dir();
 // shared_data_dir() / relative; empty path when it does not exist.
 std::filesystem::path shared_data(const std::filesystem::path& relative);
 
+// A file of the source tree: $COLOC_SOURCE_DIR (set by ctest) / relative, else this build's
+// source directory / relative.
+std::filesystem::path source_file(const std::filesystem::path& relative);
+
 // A fresh, empty temporary directory, unique to this process and test (removed and recreated
 // on each call). Callers remove it when they want to; /tmp is cleaned by the system.
 std::filesystem::path temp_dir(const std::string& name);

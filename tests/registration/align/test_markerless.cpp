@@ -21,8 +21,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path tum1_settings() {
-  const char* env = std::getenv("COLOC_SOURCE_DIR");
-  return fs::path(env != nullptr ? env : ".") / "Examples/RGB-D/TUM1.yaml";
+  return testing::source_file("Examples/RGB-D/TUM1.yaml");
 }
 
 // A map of TUM fr1/xyz: every 4th frame a keyframe at its ground-truth pose, storing its depth

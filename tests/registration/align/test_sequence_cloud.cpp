@@ -22,8 +22,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path tum1_settings() {
-  const char* env = std::getenv("COLOC_SOURCE_DIR");
-  return fs::path(env != nullptr ? env : ".") / "Examples/RGB-D/TUM1.yaml";
+  return testing::source_file("Examples/RGB-D/TUM1.yaml");
 }
 
 TEST(SequenceCloud, FusedCloudLandsOnTheDepthOfAFrameItDidNotUse) {
