@@ -161,11 +161,11 @@ coloc_status coloc_fusion_push_global_pose(coloc_fusion* fusion, const coloc_pos
   if (!read_pose(world_from_head, time, pose)) {
     return fail(fusion, COLOC_ERROR_INVALID_ARGUMENT, "global pose is NULL or not finite");
   }
-  if (tracking < 0 || tracking > 2) {
-    return fail(fusion, COLOC_ERROR_INVALID_ARGUMENT, "tracking must be 0, 1 or 2");
+  if (tracking < 0 || tracking > 3) {
+    return fail(fusion, COLOC_ERROR_INVALID_ARGUMENT, "tracking must be 0, 1, 2 or 3");
   }
   try {
-    fusion->node->push_global_pose(time, pose, static_cast<coloc::fusion::TrackingState>(tracking));
+    fusion->node->push_global_pose(time, pose, coloc::fusion::tracking_state_from_wire(tracking));
     return COLOC_OK;
   } catch (const std::exception& e) {
     return fail(fusion, COLOC_ERROR_INTERNAL, e.what());

@@ -49,7 +49,14 @@ typedef enum coloc_status {
 } coloc_status;
 
 /* Tracking state of a global pose (as on the wire). */
-enum { COLOC_TRACKING_LOST = 0, COLOC_TRACKING_OK = 1, COLOC_TRACKING_RELOCALIZED = 2 };
+/* ODOMETRY: the localizer carries its pose on by visual odometry outside its map; ignored (it
+ * drifts like the headset). */
+enum {
+  COLOC_TRACKING_LOST = 0,
+  COLOC_TRACKING_OK = 1,
+  COLOC_TRACKING_RELOCALIZED = 2,
+  COLOC_TRACKING_ODOMETRY = 3
+};
 /* State of the fused output. */
 enum {
   COLOC_FUSION_WAITING = 0, /* no global pose yet: fused = raw headset pose */

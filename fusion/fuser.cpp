@@ -77,11 +77,28 @@ void DriftFuser::restart_global_clock() {
   last_accepted_time_ = -1e300;
 }
 
+TrackingState tracking_state_from_wire(std::int32_t state) {
+  switch (state) {
+    case 0:
+      return TrackingState::kLost;
+    case 2:
+      return TrackingState::kRelocalized;
+    case 3:
+      return TrackingState::kOdometry;
+    default:
+      return TrackingState::kTracking;
+  }
+}
+
 GateDecision DriftFuser::push_global_pose(double time, const SE3& world_from_head,
                                           TrackingState tracking) {
   ++stats_.global_poses;
   if (tracking == TrackingState::kLost) {
     ++stats_.lost;
+    return GateDecision::kRejected;
+  }
+  if (tracking == TrackingState::kOdometry) {
+    ++stats_.odometry;
     return GateDecision::kRejected;
   }
   if (!(time > last_global_time_)) {

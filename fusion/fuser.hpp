@@ -20,8 +20,20 @@
 
 namespace coloc::fusion {
 
-// Tracking state of a global pose, as sent on the wire (osc.hpp).
-enum class TrackingState : std::int32_t { kLost = 0, kTracking = 1, kRelocalized = 2 };
+// Tracking state of a global pose, as sent on the wire (osc.hpp). kOdometry: the localizer is
+// not localized in its map and carries its last pose on by visual odometry; such a pose drifts
+// like the headset does, so it is no measurement of the headset's drift and is ignored like a
+// lost one (counted apart).
+enum class TrackingState : std::int32_t {
+  kLost = 0,
+  kTracking = 1,
+  kRelocalized = 2,
+  kOdometry = 3
+};
+
+// A state as numbered on the wire (osc.hpp, c_api.h). A number this build does not know (a
+// newer sender) counts as tracking, as before kOdometry existed.
+TrackingState tracking_state_from_wire(std::int32_t state);
 
 // What the client can read about the correction it is getting.
 enum class FusionState : std::int32_t {
@@ -56,6 +68,7 @@ struct FuserStats {
   std::uint64_t initialized = 0;   // (re-)initializations of D
   std::uint64_t rejected = 0;      // gated out as improbable
   std::uint64_t lost = 0;          // global poses with TrackingState::kLost (ignored)
+  std::uint64_t odometry = 0;      // global poses with TrackingState::kOdometry (ignored)
   std::uint64_t unaligned = 0;     // no headset pose at the global pose's time
   std::uint64_t out_of_order = 0;  // headset or global poses not newer than the previous one
 };

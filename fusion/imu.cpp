@@ -171,7 +171,8 @@ GateDecision ImuFuser::push_global_pose(double time, const SE3& world_from_body,
   const std::optional<SE3> integrated =
       initialized_ ? integrated_.at(time, options_.fuser.max_extrapolation) : std::nullopt;
   if (!anchored_) {
-    if (!integrated || tracking == TrackingState::kLost) return GateDecision::kRejected;
+    if (!integrated || tracking == TrackingState::kLost || tracking == TrackingState::kOdometry)
+      return GateDecision::kRejected;
     anchor(world_from_body * integrated->inverse());
     return GateDecision::kInitialized;
   }

@@ -173,10 +173,7 @@ void FusionNode::handle(const OscPacket& packet) {
   for (const OscMessage& m : packet.messages) {
     if (m.address == kPoseAddress) {
       if (!admit(global_stream_, m.pose, packet.received, false)) continue;
-      const auto state = m.pose.state == 0   ? TrackingState::kLost
-                         : m.pose.state == 2 ? TrackingState::kRelocalized
-                                             : TrackingState::kTracking;
-      fuser_.push_global_pose(m.pose.time, m.pose.pose(), state);
+      fuser_.push_global_pose(m.pose.time, m.pose.pose(), tracking_state_from_wire(m.pose.state));
     } else if (m.address == kXrPoseAddress) {
       if (!admit(xr_stream_, m.pose, packet.received, true)) continue;
       push_xr_locked(m.pose.time, m.pose.pose());

@@ -63,6 +63,7 @@ struct LocalizeArgs {
   fs::path calibration;
   std::string mode;
   double seconds = 0.0;
+  int odometry_frames = -1;  // -1: the localizer's default bridge
   // bench
   ViewArgs view;  // --view: live in the browser
   int runs = 1;
@@ -268,6 +269,7 @@ void print_summary(const LocalizeArgs& args, const LocalizeInputs& in,
     print_json({{"frames", s.frames},
                 {"published_pose", published_name},
                 {"localized", s.localized},
+                {"bridged", s.bridged},
                 {"lost", s.lost},
                 {"relocalizations", s.relocalizations},
                 {"dropped", totals.dropped},
@@ -290,8 +292,9 @@ void print_summary(const LocalizeArgs& args, const LocalizeInputs& in,
                 {"ate_unaligned_rmse_m", unaligned ? Json(unaligned->translation.rmse) : Json()}});
     return;
   }
-  std::cout << "frames " << s.frames << ", localized " << s.localized << ", lost " << s.lost
-            << ", relocalizations " << s.relocalizations << ", dropped " << totals.dropped
+  std::cout << "frames " << s.frames << ", localized " << s.localized
+            << (s.bridged ? ", bridged by odometry " + std::to_string(s.bridged) : "") << ", lost "
+            << s.lost << ", relocalizations " << s.relocalizations << ", dropped " << totals.dropped
             << (totals.skipped ? ", skipped (unreadable) " + std::to_string(totals.skipped) : "")
             << "\nms/frame: median " << s.total_ms.quantile(0.5) << ", p99 "
             << s.total_ms.quantile(0.99) << ", max " << s.total_ms.max() << "\nfirst pose at frame "
@@ -330,8 +333,9 @@ void run_localize(const LocalizeArgs& args) {
   // Published poses: world_from_head when the headset mounting is given, else world_from_cam.
   const SE3 cam_from_published = args.head.empty() ? SE3() : read_cam_from_head(args.head);
   const char* published_name = args.head.empty() ? "world_from_cam" : "world_from_head";
-  Localizer localizer(*in.map, in.vocabulary, in.settings,
-                      slam::localize::options_from_settings(in.settings));
+  slam::localize::LocalizerOptions options = slam::localize::options_from_settings(in.settings);
+  if (args.odometry_frames >= 0) options.odometry.max_frames = args.odometry_frames;
+  Localizer localizer(*in.map, in.vocabulary, in.settings, options);
   // A viewer that cannot start (port in use) is a warning: localization goes on without it.
   std::unique_ptr<slam::view::ViewServer> view_server;
   std::unique_ptr<LiveLocalizationView> view;
@@ -364,8 +368,10 @@ void run_localize(const LocalizeArgs& args) {
       return;
     }
     last_pose = r.world_from_cam * cam_from_published;
-    totals.inliers_sum += r.inliers;
-    totals.rms_sum += r.reprojection_rms_px;
+    if (r.state != LocalizationState::kOdometry) {  // the means are of poses in the map
+      totals.inliers_sum += r.inliers;
+      totals.rms_sum += r.reprojection_rms_px;
+    }
     server->publish(fusion::PoseMessage::from_pose(time, sequence_number++,
                                                    static_cast<std::int32_t>(r.state), last_pose));
     totals.published += args.publish.size();
@@ -521,6 +527,10 @@ void add_localize_verb(CLI::App& app, CLI::App& bench) {
                 "Allow --publish to a subnet broadcast address (SO_BROADCAST)");
   cmd->add_flag("--realtime", args->realtime,
                 "Frames arrive at their timestamps; frames the localizer cannot take are dropped");
+  cmd->add_option("--odometry-frames", args->odometry_frames,
+                  "Outside the map, carry the pose on by visual odometry for at most this many "
+                  "frames (state 3, 'odometry'; 0: report lost instead; default 90)")
+      ->check(CLI::Range(0, 100000));
   cmd->add_option("--start", args->start, "First frame (0-based)");
   cmd->add_option("--frames", args->frames, "Frames to localize (0: to the end)");
   cmd->add_option("--repeat", args->repeat, "Replay the frames this many times")

@@ -185,10 +185,8 @@ void Session::push_global(const std::string& id, const PoseMessage& world_from_h
   if (last_verdict_ == StreamVerdict::kResynced && p->fuser) p->fuser->restart_global_clock();
   if (!p->fuser) return;  // drift correction off for this participant
   ++stats_.global_poses;
-  const auto tracking = world_from_head.state == 0   ? TrackingState::kLost
-                        : world_from_head.state == 2 ? TrackingState::kRelocalized
-                                                     : TrackingState::kTracking;
-  p->fuser->push_global_pose(world_from_head.time, world_from_head.pose(), tracking);
+  p->fuser->push_global_pose(world_from_head.time, world_from_head.pose(),
+                             tracking_state_from_wire(world_from_head.state));
 }
 
 void Session::push_anchor(const PoseMessage& world_from_camera) {

@@ -57,7 +57,9 @@ LocalizedWalk localize_walk(const fs::path& map_path, const slam::bow::Vocabular
       continue;
     }
     const auto r = localizer.localize(frame->color, frame->depth, frame->timestamp);
-    if (r.state == LocalizationState::kLost) continue;
+    // Bridged poses drift: the walk's views refine the registration, so only poses localized in
+    // the map count.
+    if (r.state == LocalizationState::kLost || r.state == LocalizationState::kOdometry) continue;
     walk.trajectory.push_back({r.timestamp, r.world_from_cam});
     if (walk.localized++ % o.every != 0) continue;
     walk.features.push_back(

@@ -46,12 +46,13 @@ enum {
 enum {
   COLOC_LOCALIZE_LOST = 0,
   COLOC_LOCALIZE_TRACKING = 1,
-  COLOC_LOCALIZE_RELOCALIZED = 2 /* localized again (or for the first time) in this frame */
+  COLOC_LOCALIZE_RELOCALIZED = 2, /* localized again (or for the first time) in this frame */
+  COLOC_LOCALIZE_ODOMETRY = 3     /* outside the map: carried on by visual odometry (drifts) */
 };
 
 typedef struct coloc_localize_pose {
   double time;                /* the frame's timestamp, seconds */
-  int32_t state;              /* COLOC_LOCALIZE_LOST / _TRACKING / _RELOCALIZED */
+  int32_t state;              /* COLOC_LOCALIZE_LOST / _TRACKING / _RELOCALIZED / _ODOMETRY */
   int32_t inliers;            /* map points supporting the pose (0 when lost) */
   double position[3];         /* world_from_cam translation, metres (last pose when lost) */
   double orientation[4];      /* world_from_cam rotation, x y z w */

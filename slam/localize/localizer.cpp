@@ -73,6 +73,8 @@ const char* to_string(LocalizationState state) {
       return "tracking";
     case LocalizationState::kRelocalized:
       return "relocalized";
+    case LocalizationState::kOdometry:
+      return "odometry";
   }
   return "?";
 }
@@ -80,6 +82,7 @@ const char* to_string(LocalizationState state) {
 void LocalizerOptions::check() const {
   tracking.check();
   extractor.check();
+  odometry.check();
 }
 
 LocalizerOptions options_from_settings(const settings::Settings& settings) {
@@ -97,7 +100,11 @@ LocalizerOptions options_from_settings(const settings::Settings& settings) {
 
 Localizer::Localizer(LocalizationMap& map, const bow::Vocabulary& vocabulary,
                      const settings::Settings& settings, LocalizerOptions options)
-    : map_(map), vocabulary_(vocabulary), settings_(settings), options_(options) {
+    : map_(map),
+      vocabulary_(vocabulary),
+      settings_(settings),
+      options_(options),
+      bridge_(options.odometry) {
   // Memory stays flat over hours: the tracker keeps its last frame record only.
   options_.tracking.keep_records = false;
   options_.tracking.wait_for_sink = false;
@@ -140,6 +147,7 @@ void Localizer::start_tracking(int width, int height) {
 }
 
 void Localizer::reset() {
+  bridge_.reset();
   if (geometry_) start_tracking(image_width(settings_.camera), image_height(settings_.camera));
 }
 
@@ -171,10 +179,18 @@ LocalizationResult Localizer::localize(const cv::Mat& image, const cv::Mat& dept
     r.inliers = t.inliers;
     r.reprojection_rms_px = reprojection_rms();
     if (!tracker_->records().empty()) r.reference = tracker_->records().back().reference;
+    bridge_.anchor(tracker_->current_frame(), t.cam_from_world);
+  } else if (const auto bridged = bridge_.track(tracker_->current_frame())) {
+    r.state = LocalizationState::kOdometry;
+    r.world_from_cam = bridged->cam_from_world.inverse();
+    r.inliers = bridged->inliers;
   }
-  const bool localized = r.state != LocalizationState::kLost;
+  const bool localized =
+      r.state == LocalizationState::kTracking || r.state == LocalizationState::kRelocalized;
   ++stats_.frames;
-  if (localized) {
+  if (r.state == LocalizationState::kOdometry) {
+    ++stats_.bridged;
+  } else if (localized) {
     ++stats_.localized;
     if (!was_localized_) ++stats_.relocalizations;
     if (stats_.first_localized_frame < 0) {

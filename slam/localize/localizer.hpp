@@ -2,7 +2,9 @@
 // Localization only (ORB-SLAM's localization mode) in a saved, fixed map: per frame the motion
 // model, projection search, pose optimization and local-map tracking over the map's
 // covisibility; relocalization (BoW over the whole map, EPnP-RANSAC, two projection passes) at
-// a cold start (the first frame may be anywhere in the map) and after loss. No keyframes, no
+// a cold start (the first frame may be anywhere in the map) and after loss; between a loss and
+// the next relocalization, visual odometry from the last localized frame for a few seconds
+// (odometry_bridge.hpp). No keyframes, no
 // points, no local mapping thread: the map is never modified (not even the points'
 // visible/found statistics), so it can be shared read-only and several localizers can run on
 // one map.
@@ -23,6 +25,7 @@
 #include "slam/core/ids.hpp"
 #include "slam/core/se3.hpp"
 #include "slam/features/orb_extractor.hpp"
+#include "slam/localize/odometry_bridge.hpp"
 #include "slam/localize/time_histogram.hpp"
 #include "slam/map/shared_map.hpp"
 #include "slam/mapdb/mapdb.hpp"
@@ -55,8 +58,15 @@ std::unique_ptr<LocalizationMap> load_localization_map(const std::filesystem::pa
 settings::Settings settings_saved_in(const LocalizationMap& map,
                                      const std::filesystem::path& map_path);
 
-// The numbers are the OSC `state` argument of /coloc/pose (fusion/osc.hpp).
-enum class LocalizationState : std::int32_t { kLost = 0, kTracking = 1, kRelocalized = 2 };
+// The numbers are the OSC `state` argument of /coloc/pose (fusion/osc.hpp). kOdometry: not
+// localized in the map, the pose carried on from the last localized frame by visual odometry
+// (odometry_bridge.hpp): it drifts, so a drift filter must not take it as a global measurement.
+enum class LocalizationState : std::int32_t {
+  kLost = 0,
+  kTracking = 1,
+  kRelocalized = 2,
+  kOdometry = 3
+};
 const char* to_string(LocalizationState state);
 
 struct LocalizerOptions {
@@ -65,6 +75,8 @@ struct LocalizerOptions {
   tracking::TrackingOptions tracking;
   // Must match the extractor the map was built with (its scale pyramid predicts levels).
   features::ExtractorOptions extractor;
+  // Across views the map does not cover (max_frames 0: lost there instead).
+  OdometryBridgeOptions odometry;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
 };
@@ -77,8 +89,11 @@ struct LocalizationResult {
   double timestamp = 0.0;  // seconds, the frame's (exposure) time
   LocalizationState state = LocalizationState::kLost;
   SE3 world_from_cam;  // map frame; valid unless state == kLost
-  int inliers = 0;     // map points matched and kept by the pose optimization
-  // Quality: RMS of the inliers' reprojection errors, level-0 undistorted pixels (0 when lost).
+  // Map points matched and kept by the pose optimization (kOdometry: the previous frame's
+  // points that support the bridged pose).
+  int inliers = 0;
+  // Quality: RMS of the inliers' reprojection errors, level-0 undistorted pixels (0 when lost
+  // or bridged).
   double reprojection_rms_px = 0.0;
   KeyframeId reference;  // the keyframe sharing most points with the frame (invalid when lost)
   // Wall time of this call: feature extraction, the rest of tracking, and in it the initial pose
@@ -87,7 +102,8 @@ struct LocalizationResult {
 };
 
 struct LocalizerStats {
-  std::uint64_t frames = 0, localized = 0, lost = 0;
+  // localized: in the map; bridged: kOdometry (neither localized nor lost).
+  std::uint64_t frames = 0, localized = 0, bridged = 0, lost = 0;
   std::uint64_t relocalizations = 0;  // lost (or cold) -> localized transitions
   // First localized frame: its index (0-based) and the wall time from the first frame's start.
   std::int64_t first_localized_frame = -1;
@@ -131,6 +147,7 @@ class Localizer {
   LocalizerOptions options_;
   std::shared_ptr<const frame::FrameGeometry> geometry_;
   std::unique_ptr<tracking::Tracker> tracker_;
+  OdometryBridge bridge_;
   LocalizerStats stats_;
   bool was_localized_ = false;
   double first_frame_start_s_ = -1.0;  // steady clock, seconds

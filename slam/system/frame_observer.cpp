@@ -10,6 +10,8 @@ const char* to_string(ObservedState state) {
       return "tracking";
     case ObservedState::kRelocalized:
       return "relocalized";
+    case ObservedState::kOdometry:
+      return "odometry";
     case ObservedState::kInit:
       return "initializing";
   }

@@ -16,9 +16,15 @@
 
 namespace coloc::slam::system {
 
-// The numbers are those of the OSC state (0 lost, 1 tracking, 2 just relocalized) plus
-// initializing, so a viewer shows one state whichever loop produced the frame.
-enum class ObservedState : std::int32_t { kLost = 0, kTracking = 1, kRelocalized = 2, kInit = 3 };
+// The numbers are those of the OSC state (0 lost, 1 tracking, 2 just relocalized, 3 bridged by
+// odometry) plus initializing, so a viewer shows one state whichever loop produced the frame.
+enum class ObservedState : std::int32_t {
+  kLost = 0,
+  kTracking = 1,
+  kRelocalized = 2,
+  kOdometry = 3,
+  kInit = 4
+};
 const char* to_string(ObservedState state);
 
 struct FrameSnapshot {
@@ -26,7 +32,7 @@ struct FrameSnapshot {
   double timestamp = 0.0;   // seconds
   ObservedState state = ObservedState::kInit;
   bool keyframe = false;  // this frame became a keyframe
-  SE3 world_from_cam;     // valid for kTracking and kRelocalized
+  SE3 world_from_cam;     // valid for kTracking, kRelocalized and kOdometry
   int inliers = 0;
   double track_ms = 0.0;  // extraction + tracking of this frame
   // Keypoints of the frame (raw pixels) and whether each is tracked (matched, not an outlier).

@@ -197,6 +197,9 @@ class Tracker {
   // The last frame tracked (its pose, keypoints and inlier matches in `points`), empty after a
   // frame that was not. Valid until the next track().
   const frame::Frame& last_frame() const { return last_; }
+  // The frame of the last track() call, tracked or not: its features and keypoint depths (a
+  // localizer bridges a lost frame by odometry from them).
+  const frame::Frame& current_frame() const { return current_; }
   int relocalizations() const { return relocalizations_; }
 
  private:

@@ -37,7 +37,8 @@ std::string encode_jpeg(const cv::Mat& image, bool rgb, int quality, int max_wid
 std::string frame_json(const system::FrameSnapshot& s, int width, int height) {
   nlohmann::json pose;
   if (s.state == system::ObservedState::kTracking ||
-      s.state == system::ObservedState::kRelocalized) {
+      s.state == system::ObservedState::kRelocalized ||
+      s.state == system::ObservedState::kOdometry) {
     const Eigen::Quaterniond& q = s.world_from_cam.quaternion();
     const Eigen::Vector3d& t = s.world_from_cam.translation();
     pose = {q.x(), q.y(), q.z(), q.w(), t.x(), t.y(), t.z()};

@@ -109,6 +109,25 @@ TEST(DriftFuser, CountsUnusableInput) {
   EXPECT_EQ(s.xr_poses, 1u);
 }
 
+// A pose the localizer carried on by visual odometry outside its map drifts like the headset:
+// it neither starts nor moves the correction, and the wire's numbers map to the states.
+TEST(DriftFuser, IgnoresOdometryPoses) {
+  DriftFuser fuser;
+  fuser.push_xr_pose(0.0, head_at(0.0));
+  fuser.push_xr_pose(0.1, head_at(0.1));
+  const SE3 off(SO3(), Eigen::Vector3d(0.5, 0.0, 0.0));
+  EXPECT_EQ(fuser.push_global_pose(0.05, off * head_at(0.05), TrackingState::kOdometry),
+            GateDecision::kRejected);
+  EXPECT_EQ(fuser.stats().odometry, 1u);
+  EXPECT_EQ(fuser.stats().lost, 0u);
+  EXPECT_EQ(fuser.push_xr_pose(0.11, head_at(0.11)).state, FusionState::kWaiting);
+  EXPECT_EQ(tracking_state_from_wire(0), TrackingState::kLost);
+  EXPECT_EQ(tracking_state_from_wire(1), TrackingState::kTracking);
+  EXPECT_EQ(tracking_state_from_wire(2), TrackingState::kRelocalized);
+  EXPECT_EQ(tracking_state_from_wire(3), TrackingState::kOdometry);
+  EXPECT_EQ(tracking_state_from_wire(9), TrackingState::kTracking);  // a newer sender's state
+}
+
 TEST(DriftFuser, GatingKeepsTheUserInPlace) {
   DriftFuser fuser;
   for (int i = 0; i < 200; ++i) {

@@ -9,7 +9,9 @@ using Coloc.Native;
 namespace Coloc
 {
     // Numbers as on the wire and in the C ABI.
-    public enum TrackingState { Lost = 0, Tracking = 1, Relocalized = 2 }
+    // Odometry: the localizer is outside its map, carrying its pose on by visual odometry; the
+    // fusion ignores such poses (they drift like the headset).
+    public enum TrackingState { Lost = 0, Tracking = 1, Relocalized = 2, Odometry = 3 }
     public enum FusionState { Waiting = 0, Tracking = 1, Holding = 2 }
 
     public sealed class FusionOptions
