@@ -28,13 +28,16 @@
 namespace coloc::slam::localize {
 
 struct OdometryBridgeOptions {
-  // Bridged frames in a row before the bridge gives up and the localizer reports lost. 90
-  // frames = 3 s at 30 Hz; over 7-Scenes' unmapped stretch (84 frames) the bridged poses
-  // drifted by ... (docs/results/surface-ba.md). 0 turns the bridge off.
+  // Bridged frames in a row before the bridge gives up and the localizer reports lost: 90
+  // frames = 3 s at 30 Hz. Measured drift from the bridge's start: the twin room walk 8 mm after
+  // 30 frames; 7-Scenes (colour and depth not registered) 52-105 mm after 84-90 frames, 0.7-0.8 m
+  // of path (docs/results/surface-ba.md). 0 turns the bridge off.
   int max_frames = 90;
   int min_inliers = 30;  // points supporting a bridged pose (the localizer's own floor)
   // A bridged frame becomes the anchor when its inliers fall below this share of the first
-  // frame's tracked from the current anchor.
+  // frame's tracked from the current anchor. (An anchor moved at every frame: 39 mm after the
+  // twin's 30 frames; 7-Scenes 60 mm after 84, where the depth misregistration favours short
+  // baselines.)
   double reanchor_ratio = 0.6;
   double search_radius_px = 15;       // level-0 pixels around the predicted projection (x scale)
   int max_descriptor_distance = 100;  // Hamming (ORB-SLAM's TH_HIGH)
