@@ -57,6 +57,8 @@ struct GlobalRegistrationOptions {
   double min_colour_agreement = 0.1;
   double distinct_m = 0.5, distinct_deg = 10.0;  // what counts as another solution
   std::uint64_t seed = 1;
+  // FPFH and the refinement of the proposals (0: one per core); the result does not depend on it.
+  int threads = 0;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
 };

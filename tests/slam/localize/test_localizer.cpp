@@ -160,6 +160,44 @@ TEST(Localizer, LostThenRelocalizedAfterAJump) {
   EXPECT_EQ(l.stats().relocalizations, 2u);
 }
 
+// Where the map has nothing to match (here: its points erased after frame 9, as if the walk had
+// left the mapped part), the localizer carries the pose on by odometry, reported as such, close
+// to where SLAM had the frames; after its budget it reports lost, and the fusion-facing stats
+// keep the two apart.
+TEST(Localizer, BridgesByOdometryWhereTheMapHasNoPointsThenReportsLost) {
+  Inputs in = open_inputs();
+  LocalizerOptions options = options_from_settings(in.settings);
+  options.odometry.max_frames = 20;
+  Localizer l(*in.map, test_support::vocabulary(), in.settings, options);
+  for (std::size_t i = 0; i < 10; ++i)
+    ASSERT_NE(localize_frame(l, *in.sequence, i).state, LocalizationState::kLost) << "frame " << i;
+  {
+    std::lock_guard lock(in.map->shared.mutex);
+    std::vector<MapPointId> ids;
+    for (const auto& [id, point] : in.map->shared.map.points())
+      ids.push_back(id);
+    for (const MapPointId id : ids)
+      in.map->shared.map.erase_point(id);
+  }
+  double worst = 0.0;
+  for (std::size_t i = 10; i < 30; ++i) {
+    const LocalizationResult r = localize_frame(l, *in.sequence, i);
+    ASSERT_EQ(r.state, LocalizationState::kOdometry) << "frame " << i;
+    EXPECT_GE(r.inliers, 30);
+    EXPECT_EQ(r.reprojection_rms_px, 0.0);
+    const auto m = mapped_pose(fixture().mapped, r.timestamp);
+    ASSERT_TRUE(m);
+    worst = std::max(worst, (m->translation() - r.world_from_cam.translation()).norm());
+  }
+  EXPECT_LT(worst, 0.02) << "metres from the mapped poses after 20 bridged frames";
+  EXPECT_EQ(localize_frame(l, *in.sequence, 30).state, LocalizationState::kLost);
+  const LocalizerStats& s = l.stats();
+  EXPECT_EQ(s.localized, 10u);
+  EXPECT_EQ(s.bridged, 20u);
+  EXPECT_EQ(s.lost, 1u);
+  EXPECT_STREQ(to_string(LocalizationState::kOdometry), "odometry");
+}
+
 // The map is read only: after localizing (tracking, loss, relocalization, reset) it equals a
 // second load of the same file field by field (points' visible/found counts included), and the
 // file's bytes are unchanged.
