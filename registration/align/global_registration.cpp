@@ -323,12 +323,123 @@ std::pair<Scored, std::optional<Scored>> judge_best(const std::vector<Scored>& r
   return {winner, runner_up};
 }
 
+// The global search: FPFH features of both clouds, their mutual matches, and RANSAC over
+// samples of matches (2 with gravity: yaw and translation; else 3) whose pairwise distances agree.
+// Returns the `hypotheses` most voted distinct transforms (scan_from_map), best first; counts
+// the mutual matches in `matches_found`. Throws coloc::Error when the clouds share too few
+// features or no transform is consistent.
+std::vector<SE3> feature_proposals(const Cloud::Ptr& map, const Cloud::Ptr& scan,
+                                   const GlobalRegistrationOptions& o, std::size_t& matches_found) {
+  const double v = o.voxel_size;
+  const double inlier = o.inlier_factor * v;
+  const Features::Ptr map_features = fpfh(map, o.feature_radius * v, o.threads);
+  const Features::Ptr scan_features = fpfh(scan, o.feature_radius * v, o.threads);
+  const auto matches = mutual_matches(*map_features, *scan_features);
+  matches_found = matches.size();
+  const std::size_t sample = o.gravity ? 2 : 3;
+  if (matches.size() < sample + 3)
+    throw Error("the map and the scan share too few features (" + std::to_string(matches.size()) +
+                    " mutual matches): too little overlap? Give --initial or use markers",
+                {.field = "registration"});
+  std::mt19937_64 rng(o.seed);
+  std::uniform_int_distribution<std::size_t> pick(0, matches.size() - 1);
+  struct Proposal {
+    SE3 t;
+    std::size_t votes;
+  };
+  std::vector<Proposal> best;  // distinct, most votes first
+  std::vector<Eigen::Vector3d> src(sample), dst(sample);
+  for (int it = 0; it < o.ransac_iterations; ++it) {
+    bool similar = true;
+    for (std::size_t k = 0; k < sample; ++k) {
+      const auto& [i, j] = matches[pick(rng)];
+      src[k] = xyz((*map)[static_cast<std::size_t>(i)]);
+      dst[k] = xyz((*scan)[static_cast<std::size_t>(j)]);
+    }
+    // Prerejection: a rigid motion keeps the sample's pairwise distances.
+    for (std::size_t a = 0; a < sample && similar; ++a)
+      for (std::size_t b = a + 1; b < sample && similar; ++b) {
+        const double ls = (src[a] - src[b]).norm(), ld = (dst[a] - dst[b]).norm();
+        similar =
+            std::min(ls, ld) > 2.0 * v && std::min(ls, ld) / std::max(ls, ld) > o.edge_similarity;
+      }
+    if (!similar) continue;
+    const std::optional<SE3> t = propose(src, dst, o.gravity);
+    if (!t) continue;
+    std::size_t votes = 0;
+    for (const auto& [i, j] : matches)
+      if ((*t * xyz((*map)[static_cast<std::size_t>(i)]) -
+           xyz((*scan)[static_cast<std::size_t>(j)]))
+              .norm() < inlier)
+        ++votes;
+    auto same = std::find_if(best.begin(), best.end(),
+                             [&](const Proposal& p) { return !distinct(p.t, *t, o); });
+    if (same != best.end()) {
+      if (votes > same->votes) *same = {*t, votes};
+    } else {
+      best.push_back({*t, votes});
+    }
+    std::sort(best.begin(), best.end(),
+              [](const Proposal& a, const Proposal& b) { return a.votes > b.votes; });
+    if (best.size() > static_cast<std::size_t>(o.hypotheses)) best.resize(o.hypotheses);
+  }
+  if (best.empty())
+    throw Error(
+        "no consistent transform among the feature matches: too little overlap or a "
+        "featureless scene? Give --initial or use markers",
+        {.field = "registration"});
+  std::vector<SE3> proposals(best.size());
+  std::transform(best.begin(), best.end(), proposals.begin(),
+                 [](const Proposal& p) { return p.t; });
+  return proposals;
+}
+
 std::string figures(const Scored& s, double runner_up) {
   std::ostringstream out;
   out.precision(3);
   out << "fitness " << s.fitness << ", inlier RMSE " << s.rmse << " m, runner-up fitness "
       << runner_up << ", colour correlation " << s.colour_correlation;
   return out.str();
+}
+
+// The share of the scan's voxels that the map moved by `scan_from_map` reaches.
+double overlap(const Cloud& map, const Cloud& scan, const SE3& scan_from_map, double reach) {
+  Cloud moved = map;
+  for (auto& p : moved) {
+    const Eigen::Vector3d q = scan_from_map * xyz(p);
+    p.x = static_cast<float>(q.x());
+    p.y = static_cast<float>(q.y());
+    p.z = static_cast<float>(q.z());
+  }
+  return score(scan, moved, NearestGrid(moved, reach), SE3()).fitness;
+}
+
+// Throws the named error when the winner is weak, its colours disagree, or a rival far from it
+// fits nearly as well and the colours do not tell them apart; records in `report` whether the
+// colours decided.
+void verdict(const Scored& winner, const std::optional<Scored>& runner_up,
+             const GlobalRegistrationOptions& o, GlobalRegistrationReport& report) {
+  if (winner.fitness < o.min_fitness)
+    throw Error("no transform puts the map on the scan (" + figures(winner, report.runner_up) +
+                    "; needs fitness >= " + std::to_string(o.min_fitness) +
+                    "): another building, or too little overlap? Give --initial or use markers",
+                {.field = "registration"});
+  if (std::isfinite(winner.colour_correlation) &&
+      winner.colour_correlation < o.min_colour_agreement)
+    throw Error("the shape fits but the colours do not (" + figures(winner, report.runner_up) +
+                    "; needs a colour correlation >= " + std::to_string(o.min_colour_agreement) +
+                    "): another place of the same shape? Give --initial or use markers",
+                {.field = "registration"});
+  // A rival that fits the shape nearly as well is told apart by the colours when they agree
+  // clearly better at the winner (a symmetric room whose walls differ in what hangs on them).
+  const bool colours_decide = !runner_up || better_coloured(winner, *runner_up, o);
+  report.decided_by_colour = report.runner_up >= o.ambiguity * winner.fitness && colours_decide;
+  if (report.runner_up >= o.ambiguity * winner.fitness && !colours_decide)
+    throw Error("ambiguous: another transform, far from the best, fits the map nearly as well (" +
+                    figures(winner, report.runner_up) +
+                    ") and the colours do not tell them apart: a symmetric or repeated space. "
+                    "Give --initial or use markers",
+                {.field = "registration"});
 }
 
 }  // namespace
@@ -384,64 +495,7 @@ GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
     proposals.push_back(*initial);
     report.from_initial = true;
   } else {
-    const Features::Ptr map_features = fpfh(map, o.feature_radius * v, o.threads);
-    const Features::Ptr scan_features = fpfh(scan, o.feature_radius * v, o.threads);
-    const auto matches = mutual_matches(*map_features, *scan_features);
-    report.matches = matches.size();
-    const std::size_t sample = o.gravity ? 2 : 3;
-    if (matches.size() < sample + 3)
-      throw Error("the map and the scan share too few features (" + std::to_string(matches.size()) +
-                      " mutual matches): too little overlap? Give --initial or use markers",
-                  {.field = "registration"});
-    std::mt19937_64 rng(o.seed);
-    std::uniform_int_distribution<std::size_t> pick(0, matches.size() - 1);
-    struct Proposal {
-      SE3 t;
-      std::size_t votes;
-    };
-    std::vector<Proposal> best;  // distinct, most votes first
-    std::vector<Eigen::Vector3d> src(sample), dst(sample);
-    for (int it = 0; it < o.ransac_iterations; ++it) {
-      bool similar = true;
-      for (std::size_t k = 0; k < sample; ++k) {
-        const auto& [i, j] = matches[pick(rng)];
-        src[k] = xyz((*map)[static_cast<std::size_t>(i)]);
-        dst[k] = xyz((*scan)[static_cast<std::size_t>(j)]);
-      }
-      // Prerejection: a rigid motion keeps the sample's pairwise distances.
-      for (std::size_t a = 0; a < sample && similar; ++a)
-        for (std::size_t b = a + 1; b < sample && similar; ++b) {
-          const double ls = (src[a] - src[b]).norm(), ld = (dst[a] - dst[b]).norm();
-          similar =
-              std::min(ls, ld) > 2.0 * v && std::min(ls, ld) / std::max(ls, ld) > o.edge_similarity;
-        }
-      if (!similar) continue;
-      const std::optional<SE3> t = propose(src, dst, o.gravity);
-      if (!t) continue;
-      std::size_t votes = 0;
-      for (const auto& [i, j] : matches)
-        if ((*t * xyz((*map)[static_cast<std::size_t>(i)]) -
-             xyz((*scan)[static_cast<std::size_t>(j)]))
-                .norm() < inlier)
-          ++votes;
-      auto same = std::find_if(best.begin(), best.end(),
-                               [&](const Proposal& p) { return !distinct(p.t, *t, o); });
-      if (same != best.end()) {
-        if (votes > same->votes) *same = {*t, votes};
-      } else {
-        best.push_back({*t, votes});
-      }
-      std::sort(best.begin(), best.end(),
-                [](const Proposal& a, const Proposal& b) { return a.votes > b.votes; });
-      if (best.size() > static_cast<std::size_t>(o.hypotheses)) best.resize(o.hypotheses);
-    }
-    if (best.empty())
-      throw Error(
-          "no consistent transform among the feature matches: too little overlap or a "
-          "featureless scene? Give --initial or use markers",
-          {.field = "registration"});
-    for (const Proposal& p : best)
-      proposals.push_back(p.t);
+    proposals = feature_proposals(map, scan, o, report.matches);
   }
 
   // Refine every proposal; the best explains the map. Then whether it is unique: the other
@@ -478,44 +532,14 @@ GlobalRegistrationReport register_clouds(const render::PointCloud& map_cloud,
   report.scan_from_map = winner.scan_from_map;
   report.fitness = winner.fitness;
   report.rmse = winner.rmse;
-  {
-    // Overlap: the share of the scan's voxels that the moved map reaches.
-    Cloud moved = *map;
-    for (auto& p : moved) {
-      const Eigen::Vector3d q = winner.scan_from_map * xyz(p);
-      p.x = static_cast<float>(q.x());
-      p.y = static_cast<float>(q.y());
-      p.z = static_cast<float>(q.z());
-    }
-    report.overlap = score(*scan, moved, NearestGrid(moved, inlier), SE3()).fitness;
-  }
+  report.overlap = overlap(*map, *scan, winner.scan_from_map, inlier);
   report.ms = watch.elapsed_ms();
   spdlog::debug(
       "global registration: fitness {:.3f}, RMSE {:.4f} m, overlap {:.3f}, runner-up {:.3f}, "
       "colour correlation {:.3f} (runner-up {:.3f}), {} matches, {:.0f} ms",
       report.fitness, report.rmse, report.overlap, report.runner_up, report.colour_correlation,
       report.runner_up_colour_correlation, report.matches, report.ms);
-  if (winner.fitness < o.min_fitness)
-    throw Error("no transform puts the map on the scan (" + figures(winner, report.runner_up) +
-                    "; needs fitness >= " + std::to_string(o.min_fitness) +
-                    "): another building, or too little overlap? Give --initial or use markers",
-                {.field = "registration"});
-  if (std::isfinite(winner.colour_correlation) &&
-      winner.colour_correlation < o.min_colour_agreement)
-    throw Error("the shape fits but the colours do not (" + figures(winner, report.runner_up) +
-                    "; needs a colour correlation >= " + std::to_string(o.min_colour_agreement) +
-                    "): another place of the same shape? Give --initial or use markers",
-                {.field = "registration"});
-  // A rival that fits the shape nearly as well is told apart by the colours when they agree
-  // clearly better at the winner (a symmetric room whose walls differ in what hangs on them).
-  const bool colours_decide = !runner_up || better_coloured(winner, *runner_up, o);
-  report.decided_by_colour = report.runner_up >= o.ambiguity * winner.fitness && colours_decide;
-  if (report.runner_up >= o.ambiguity * winner.fitness && !colours_decide)
-    throw Error("ambiguous: another transform, far from the best, fits the map nearly as well (" +
-                    figures(winner, report.runner_up) +
-                    ") and the colours do not tell them apart: a symmetric or repeated space. "
-                    "Give --initial or use markers",
-                {.field = "registration"});
+  verdict(winner, runner_up, o, report);
   return report;
 }
 
