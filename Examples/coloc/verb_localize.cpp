@@ -529,7 +529,7 @@ void add_localize_verb(CLI::App& app, CLI::App& bench) {
                 "Frames arrive at their timestamps; frames the localizer cannot take are dropped");
   cmd->add_option("--odometry-frames", args->odometry_frames,
                   "Outside the map, carry the pose on by visual odometry for at most this many "
-                  "frames (state 3, 'odometry'; 0: report lost instead; default 90)")
+                  "frames (state 3, 'odometry'; 0: report lost instead; default 150)")
       ->check(CLI::Range(0, 100000));
   cmd->add_option("--start", args->start, "First frame (0-based)");
   cmd->add_option("--frames", args->frames, "Frames to localize (0: to the end)");

@@ -28,11 +28,12 @@
 namespace coloc::slam::localize {
 
 struct OdometryBridgeOptions {
-  // Bridged frames in a row before the bridge gives up and the localizer reports lost: 90
-  // frames = 3 s at 30 Hz. Measured drift from the bridge's start: the twin room walk 8 mm after
-  // 30 frames; 7-Scenes (colour and depth not registered) 52-105 mm after 84-90 frames, 0.7-0.8 m
-  // of path (docs/results/surface-ba.md). 0 turns the bridge off.
-  int max_frames = 90;
+  // Bridged frames in a row before the bridge gives up and the localizer reports lost: 150
+  // frames = 5 s at 30 Hz, a user looking away from the mapped part for a moment. Measured drift
+  // from the bridge's start: the twin room walk 8 mm after 30 frames; 7-Scenes (colour and depth
+  // not registered) 105 mm at most over 84 frames and 79 mm over 134 (0.8-0.9 m of path;
+  // docs/results/surface-ba.md). 0 turns the bridge off.
+  int max_frames = 150;
   int min_inliers = 30;  // points supporting a bridged pose (the localizer's own floor)
   // A bridged frame becomes the anchor when its inliers fall below this share of the first
   // frame's tracked from the current anchor. (An anchor moved at every frame: 39 mm after the
