@@ -3,10 +3,8 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
-#include <exception>
 #include <optional>
 #include <string>
 #include <thread>
@@ -14,6 +12,7 @@
 #include <utility>
 
 #include "slam/core/error.hpp"
+#include "slam/core/parallel.hpp"
 #include "slam/mapdb/codec.hpp"
 #include "slam/mapdb/reader.hpp"
 #include "slam/mapdb/schema.hpp"
@@ -559,31 +558,16 @@ void Loader::rebuild_bow() {
     keyframes.push_back(out_.map.keyframe(id));
   std::sort(keyframes.begin(), keyframes.end(),
             [](const map::Keyframe* a, const map::Keyframe* b) { return a->id < b->id; });
-  std::atomic<std::size_t> next{0};
   const std::uint64_t base = done_;
-  auto work = [&](bool report) {
-    for (std::size_t i = next++; i < keyframes.size(); i = next++) {
-      frame::Frame& f = keyframes[i]->frame;
-      vocabulary_->transform(f.features.descriptors, f.bow, f.feature_vector);
-      if (report && i % 64 == 0 && options_.progress) options_.progress(base + i, total_);
-    }
-  };
-  const int n = options_.threads > 0
-                    ? options_.threads
-                    : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-  std::vector<std::thread> helpers;
-  for (int t = 1; t < n; ++t)
-    helpers.emplace_back(work, false);
-  std::exception_ptr failure;
-  try {
-    work(true);  // only this thread reports progress, which may throw to cancel
-  } catch (...) {
-    failure = std::current_exception();
-    next = keyframes.size();  // the helpers stop at their next keyframe
-  }
-  for (std::thread& t : helpers)
-    t.join();
-  if (failure) std::rethrow_exception(failure);
+  const std::thread::id caller = std::this_thread::get_id();
+  parallel_for(keyframes.size(), options_.threads, [&](std::size_t i) {
+    frame::Frame& f = keyframes[i]->frame;
+    vocabulary_->transform(f.features.descriptors, f.bow, f.feature_vector);
+    // Only the calling thread reports progress (the callback need not be thread-safe); it may
+    // throw to cancel, which stops the other threads at their next keyframe.
+    if (std::this_thread::get_id() == caller && i % 64 == 0 && options_.progress)
+      options_.progress(base + i, total_);
+  });
   for (map::Keyframe* kf : keyframes)
     out_.database.add(kf->id.value(), kf->frame.bow);
   done_ = base + keyframes.size();
