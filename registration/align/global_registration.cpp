@@ -349,7 +349,8 @@ std::vector<SE3> feature_proposals(const Cloud::Ptr& map, const Cloud::Ptr& scan
   };
   std::vector<Proposal> best;  // distinct, most votes first
   std::vector<Eigen::Vector3d> src(sample), dst(sample);
-  for (int it = 0; it < o.ransac_iterations; ++it) {
+  const int iterations = o.ransac_iterations > 0 ? o.ransac_iterations : o.gravity ? 10000 : 100000;
+  for (int it = 0; it < iterations; ++it) {
     bool similar = true;
     for (std::size_t k = 0; k < sample; ++k) {
       const auto& [i, j] = matches[pick(rng)];
@@ -450,7 +451,8 @@ void GlobalRegistrationOptions::check() const {
     throw Error("must be a positive number of metres", {.field = "voxel_size"});
   if (!positive(normal_radius) || !positive(feature_radius) || !positive(inlier_factor))
     throw Error("radii and the inlier factor must be positive", {.field = "feature_radius"});
-  if (ransac_iterations < 1) throw Error("must be >= 1", {.field = "ransac_iterations"});
+  if (ransac_iterations < 0)
+    throw Error("must be >= 0 (0: by the sample size)", {.field = "ransac_iterations"});
   if (!(edge_similarity > 0.0 && edge_similarity < 1.0))
     throw Error("must be in (0, 1)", {.field = "edge_similarity"});
   if (hypotheses < 1) throw Error("must be >= 1", {.field = "hypotheses"});
