@@ -241,6 +241,14 @@ TEST(GlobalRegistration, OptionsAreChecked) {
   o = {};
   o.icp_voxels.clear();
   EXPECT_THROW(o.check(), Error);
+  o = {};
+  o.ransac_iterations = -1;
+  EXPECT_THROW(o.check(), Error);
+  o.ransac_iterations = 0;  // by the sample size
+  o.threads = -1;
+  EXPECT_THROW(o.check(), Error);
+  o.threads = 0;  // one per core
+  EXPECT_NO_THROW(o.check());
 }
 
 }  // namespace
