@@ -58,8 +58,10 @@ namespace Coloc.Tests
                 StringAssert.Contains("headset pose is NULL or not finite", e.Message);
                 Assert.AreEqual(1, e.Status);
                 e = Assert.Throws<ColocException>(() => fusion.PushGlobalPose(1.0, Pose.Identity, (TrackingState)7));
-                StringAssert.Contains("tracking must be 0, 1 or 2", e.Message);
+                StringAssert.Contains("tracking must be 0, 1, 2 or 3", e.Message);
                 fusion.PushXrPose(2.0, Pose.Identity); // still usable
+                // A pose the localizer bridged by odometry is taken and ignored, not an error.
+                fusion.PushGlobalPose(2.0, Pose.Identity, TrackingState.Odometry);
             }
             var disposed = new DriftFusion();
             disposed.Dispose();
