@@ -1,5 +1,5 @@
 #pragma once
-// Frame-to-frame visual odometry that carries a localizer across views its map does not cover
+// Visual odometry from an anchor frame that carries a localizer across views its map does not cover
 // (ORB-SLAM2's localization mode does the same with "visual odometry" points). A user walks
 // where the survey did not go, or looks at a table from its other side: the map has no points
 // there and relocalization finds no keyframe, yet the frames still see the same surfaces as the
@@ -31,7 +31,7 @@ struct OdometryBridgeOptions {
   // Bridged frames in a row before the bridge gives up and the localizer reports lost: 150
   // frames = 5 s at 30 Hz, a user looking away from the mapped part for a moment. Measured drift
   // from the bridge's start: the twin room walk 8 mm after 30 frames; 7-Scenes (colour and depth
-  // not registered) 105 mm at most over 84 frames and 79 mm over 134 (0.8-0.9 m of path;
+  // not registered) 107 mm at most over 84 frames and 79 mm over 134 (0.8-0.9 m of path;
   // docs/results/surface-ba.md). 0 turns the bridge off.
   int max_frames = 150;
   int min_inliers = 30;  // points supporting a bridged pose (the localizer's own floor)
