@@ -53,11 +53,10 @@ enum {
 typedef struct coloc_localize_pose {
   double time;                /* the frame's timestamp, seconds */
   int32_t state;              /* COLOC_LOCALIZE_LOST / _TRACKING / _RELOCALIZED / _ODOMETRY */
-  int32_t inliers;            /* points supporting the pose: the map's (the anchor frame's when
-                                 ODOMETRY); 0 when lost */
+  int32_t inliers;            /* points supporting the pose (ODOMETRY: the anchor frame's) */
   double position[3];         /* world_from_cam translation, metres (last pose when lost) */
   double orientation[4];      /* world_from_cam rotation, x y z w */
-  double reprojection_rms_px; /* quality: inliers' RMS reprojection error (0 when lost or ODOMETRY) */
+  double reprojection_rms_px; /* quality: inliers' RMS reprojection error (0: lost, ODOMETRY) */
   double ms;                  /* wall time of the call */
 } coloc_localize_pose;
 
