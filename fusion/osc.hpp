@@ -7,8 +7,8 @@
 //   /coloc/xr_pose     headset pose into the fuser (xr_from_head, headset frame)
 //   /coloc/fused_pose  fused pose out of the fuser (world_from_head)
 //   type tags "diifffffff": time (s, exposure or sample time on the sender's clock), sequence
-//   number, tracking state (0 lost, 1 tracking, 2 just relocalized, 3 visual odometry outside the map), position x y z (m),
-//   quaternion x y z w.
+//   number, tracking state (0 lost, 1 tracking, 2 just relocalized, 3 visual odometry outside
+//   the map), position x y z (m), quaternion x y z w.
 //
 //   /coloc/get_pose    on-demand request, no arguments (reply to the sender's address and port)
 //                      or "i" = the port to reply to on the sender's host (for one-shot senders
