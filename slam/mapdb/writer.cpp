@@ -30,6 +30,24 @@ std::vector<double> distortion_of(const Camera& camera) {
       camera);
 }
 
+// Deletes (through `remove`, bound by keyframe id) the rows of the keyframes not in `kept`
+// (sorted) and forgets their hashes; returns how many went.
+std::size_t drop_rows_except(std::map<KeyframeId, std::uint64_t>& hashes, Statement& remove,
+                             const std::vector<KeyframeId>& kept) {
+  std::size_t dropped = 0;
+  for (auto it = hashes.begin(); it != hashes.end();) {
+    if (std::binary_search(kept.begin(), kept.end(), it->first)) {
+      ++it;
+      continue;
+    }
+    remove.integer(static_cast<std::int64_t>(it->first.value()));
+    remove.run();
+    it = hashes.erase(it);
+    ++dropped;
+  }
+  return dropped;
+}
+
 }  // namespace
 
 KeyframeRow KeyframeRow::of(const map::Keyframe& kf) {
@@ -175,30 +193,8 @@ void MapWriter::depth(KeyframeId keyframe, const map::KeyframeDepth& d) {
 }
 
 std::size_t MapWriter::drop_features_except(const std::vector<KeyframeId>& keyframes) {
-  const auto kept = [&](KeyframeId k) {
-    return std::binary_search(keyframes.begin(), keyframes.end(), k);
-  };
-  for (auto it = depth_hashes_.begin(); it != depth_hashes_.end();) {
-    if (kept(it->first)) {
-      ++it;
-      continue;
-    }
-    delete_depth_->integer(static_cast<std::int64_t>(it->first.value()));
-    delete_depth_->run();
-    it = depth_hashes_.erase(it);
-  }
-  std::size_t dropped = 0;
-  for (auto it = feature_hashes_.begin(); it != feature_hashes_.end();) {
-    if (kept(it->first)) {
-      ++it;
-      continue;
-    }
-    delete_features_->integer(static_cast<std::int64_t>(it->first.value()));
-    delete_features_->run();
-    it = feature_hashes_.erase(it);
-    ++dropped;
-  }
-  return dropped;
+  drop_rows_except(depth_hashes_, *delete_depth_, keyframes);
+  return drop_rows_except(feature_hashes_, *delete_features_, keyframes);
 }
 
 void MapWriter::keyframe(const KeyframeRow& r) {
