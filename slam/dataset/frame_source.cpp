@@ -2,9 +2,12 @@
 
 #include <spdlog/spdlog.h>
 
+#include <atomic>
 #include <chrono>
+#include <exception>
 #include <thread>
 
+#include "slam/core/bounded_queue.hpp"
 #include "slam/core/error.hpp"
 
 namespace coloc::dataset {
@@ -61,7 +64,64 @@ class PacedFrames final : public FrameSource {
   std::chrono::steady_clock::time_point start_;
 };
 
+class ReadAheadFrames final : public FrameSource {
+ public:
+  ReadAheadFrames(std::unique_ptr<FrameSource> source, std::size_t capacity)
+      : source_(std::move(source)), queue_(capacity), total_(source_->remaining()) {
+    reader_ = std::thread([this] { read(); });
+  }
+  ~ReadAheadFrames() override {
+    queue_.close();  // a reader blocked on a full queue gives up
+    reader_.join();
+  }
+  ReadAheadFrames(const ReadAheadFrames&) = delete;
+  ReadAheadFrames& operator=(const ReadAheadFrames&) = delete;
+
+  std::optional<Frame> next() override {
+    auto item = queue_.pop();
+    if (!item) return std::nullopt;  // the end of the source
+    if (item->error) std::rethrow_exception(item->error);
+    handed_.fetch_add(1);
+    return std::move(item->frame);
+  }
+  // Frames not handed out yet (those in the queue included), 0 for an endless source.
+  std::size_t remaining() const override {
+    const std::size_t gone = handed_.load() + skipped_.load();
+    return total_ > gone ? total_ - gone : 0;
+  }
+  std::size_t skipped() const override { return skipped_.load(); }
+
+ private:
+  struct Item {
+    Frame frame;
+    std::exception_ptr error;
+  };
+
+  void read() {
+    try {
+      while (auto frame = source_->next()) {
+        skipped_.store(source_->skipped());
+        if (!queue_.push(Item{std::move(*frame), nullptr})) return;  // the consumer left
+      }
+      skipped_.store(source_->skipped());
+    } catch (...) {
+      queue_.push(Item{{}, std::current_exception()});
+    }
+    queue_.close();
+  }
+
+  std::unique_ptr<FrameSource> source_;
+  BoundedQueue<Item> queue_;
+  const std::size_t total_;  // the source's count before the first read
+  std::atomic<std::size_t> handed_{0}, skipped_{0};
+  std::thread reader_;
+};
+
 }  // namespace
+
+std::unique_ptr<FrameSource> read_ahead(std::unique_ptr<FrameSource> source, std::size_t capacity) {
+  return std::make_unique<ReadAheadFrames>(std::move(source), capacity);
+}
 
 std::unique_ptr<FrameSource> paced(std::unique_ptr<FrameSource> source) {
   return std::make_unique<PacedFrames>(std::move(source));

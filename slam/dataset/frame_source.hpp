@@ -30,4 +30,13 @@ std::unique_ptr<FrameSource> frames_of(const Sequence& sequence);
 // mapper's thread gets it) is what separates a paced run from an unpaced one.
 std::unique_ptr<FrameSource> paced(std::unique_ptr<FrameSource> source);
 
+// The frames of `source`, read on a thread of their own up to `capacity` frames ahead: the same
+// frames in the same order, decoded while the consumer tracks. A replay's PNG/JPEG decoding is
+// then off the tracking thread; sequentially mapped, it overlaps the local BA that tracking
+// waits for. An exception of `source` comes out of next() where its frame would have been.
+// For recordings: the destructor waits for a read in progress, which a live camera's next()
+// could hold indefinitely.
+std::unique_ptr<FrameSource> read_ahead(std::unique_ptr<FrameSource> source,
+                                        std::size_t capacity = 8);
+
 }  // namespace coloc::dataset

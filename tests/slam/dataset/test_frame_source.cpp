@@ -3,6 +3,7 @@
 
 #include <chrono>
 
+#include "slam/core/error.hpp"
 #include "slam/dataset/frame_source.hpp"
 
 namespace coloc::dataset {
@@ -45,6 +46,61 @@ TEST(PacedFrames, HandsEveryFrameOutNoEarlierThanItsTimestamp) {
   }
   EXPECT_EQ(n, stamps.size());
   EXPECT_EQ(source->skipped(), 3u);  // the wrapped source's count
+}
+
+// Frames 0..n-1; frame `bad` throws instead (an unreadable file the source cannot skip).
+class FailingFrames final : public FrameSource {
+ public:
+  FailingFrames(std::size_t n, std::size_t bad) : n_(n), bad_(bad) {}
+  std::optional<Frame> next() override {
+    if (next_ == n_) return std::nullopt;
+    if (next_ == bad_) throw Error("frame " + std::to_string(bad_) + " is broken");
+    Frame f;
+    f.index = next_++;
+    return f;
+  }
+  std::size_t remaining() const override { return n_ - next_; }
+
+ private:
+  std::size_t n_, bad_, next_ = 0;
+};
+
+TEST(ReadAheadFrames, HandsOutTheSameFramesInOrderWithTheSourcesCounts) {
+  std::vector<double> stamps;
+  for (int i = 0; i < 50; ++i)
+    stamps.push_back(0.1 * i);
+  auto source = read_ahead(std::make_unique<ListedFrames>(stamps), 4);
+  EXPECT_EQ(source->remaining(), stamps.size());
+  std::size_t n = 0;
+  while (auto f = source->next()) {
+    ASSERT_LT(n, stamps.size());
+    EXPECT_EQ(f->index, n);
+    EXPECT_DOUBLE_EQ(f->timestamp, stamps[n]);
+    ++n;
+  }
+  EXPECT_EQ(n, stamps.size());
+  EXPECT_FALSE(source->next());  // the end stays the end
+  EXPECT_EQ(source->skipped(), 3u);
+}
+
+TEST(ReadAheadFrames, ASourcesErrorComesOutWhereItsFrameWouldHaveBeen) {
+  auto source = read_ahead(std::make_unique<FailingFrames>(10, 6), 2);
+  for (std::size_t i = 0; i < 6; ++i) {
+    const auto f = source->next();
+    ASSERT_TRUE(f);
+    EXPECT_EQ(f->index, i);
+  }
+  EXPECT_THROW(source->next(), Error);
+  EXPECT_FALSE(source->next());
+}
+
+TEST(ReadAheadFrames, LeavingEarlyStopsTheReader) {
+  // The reader is blocked on a full queue when the consumer goes: the destructor must not hang.
+  std::vector<double> stamps(1000, 0.0);
+  auto source = read_ahead(std::make_unique<ListedFrames>(stamps), 2);
+  ASSERT_TRUE(source->next());
+  source.reset();
+  SUCCEED();
 }
 
 }  // namespace
