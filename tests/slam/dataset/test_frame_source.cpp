@@ -66,9 +66,9 @@ class FailingFrames final : public FrameSource {
 };
 
 TEST(ReadAheadFrames, HandsOutTheSameFramesInOrderWithTheSourcesCounts) {
-  std::vector<double> stamps;
-  for (int i = 0; i < 50; ++i)
-    stamps.push_back(0.1 * i);
+  std::vector<double> stamps(50);
+  for (std::size_t i = 0; i < stamps.size(); ++i)
+    stamps[i] = 0.1 * static_cast<double>(i);
   auto source = read_ahead(std::make_unique<ListedFrames>(stamps), 4);
   EXPECT_EQ(source->remaining(), stamps.size());
   std::size_t n = 0;
