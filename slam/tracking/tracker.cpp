@@ -40,6 +40,12 @@ void TrackingOptions::check() const {
   if (min_local_inliers < 10) throw Error("TrackingOptions.min_local_inliers must be >= 10");
   if (min_frames_between_keyframes < 0)
     throw Error("TrackingOptions.min_frames_between_keyframes must be >= 0");
+  if (!(early_keyframe_rotation_deg >= 0.0))
+    throw Error("TrackingOptions.early_keyframe_rotation_deg must be >= 0");
+  if (!(early_keyframe_translation_m >= 0.0))
+    throw Error("TrackingOptions.early_keyframe_translation_m must be >= 0");
+  if (min_frames_between_slow_keyframes < 0)
+    throw Error("TrackingOptions.min_frames_between_slow_keyframes must be >= 0");
   if (max_frames_between_keyframes < 1)
     throw Error("TrackingOptions.max_frames_between_keyframes must be >= 1");
   if (max_local_keyframes < 1) throw Error("TrackingOptions.max_local_keyframes must be >= 1");
@@ -206,6 +212,12 @@ bool Tracker::track_frame(int image_rows, double timestamp, TrackingResult& resu
       deviation_deg_ = rotation_distance(current_.cam_from_world, predicted) * kDegPerRad;
     }
     if (last_.has_pose) {
+      const SE3 current_from_last = current_.cam_from_world * last_.cam_from_world.inverse();
+      recent_motion_.push_front({current_from_last.so3().log().norm() * kDegPerRad,
+                                 current_from_last.translation().norm()});
+      const auto window =
+          static_cast<std::size_t>(std::max(options_.min_frames_between_slow_keyframes, 1));
+      if (recent_motion_.size() > window) recent_motion_.resize(window);
       refine_rolling_shutter(image_rows);
       velocity_ = current_.cam_from_world * last_.cam_from_world.inverse();
       has_velocity_ = true;
@@ -551,7 +563,7 @@ Tracker::KeyframeNeed Tracker::need_keyframe() const {
   const bool c1a = since_kf >= max_frames;
   // TrackingOptions::min_frames_between_keyframes: the mapper's state only with
   // keyframe_needs_idle_mapper; a busy one has its BA interrupted below.
-  const bool c1b = since_kf >= static_cast<std::uint64_t>(options_.min_frames_between_keyframes) &&
+  const bool c1b = since_kf >= static_cast<std::uint64_t>(min_frames_for_keyframe()) &&
                    (mapping_idle || !options_.keyframe_needs_idle_mapper);
   const bool c1c = matches_inliers_ < ref_matches * 0.25 || need_close;
   // The reference is a keyframe this tracker made from a far weaker frame (blurred, or at the
@@ -565,6 +577,19 @@ Tracker::KeyframeNeed Tracker::need_keyframe() const {
   if (mapping_idle) return KeyframeNeed::kYes;
   sink_->interrupt();
   return sink_->queued() < 3 ? KeyframeNeed::kYes : KeyframeNeed::kMapperBusy;
+}
+
+int Tracker::min_frames_for_keyframe() const {
+  double turned_deg = 0.0, moved_m = 0.0;
+  for (const auto& [deg, m] : recent_motion_) {
+    turned_deg += deg;
+    moved_m += m;
+  }
+  const bool moved = turned_deg >= options_.early_keyframe_rotation_deg ||
+                     moved_m >= options_.early_keyframe_translation_m;
+  return moved ? options_.min_frames_between_keyframes
+               : std::max(options_.min_frames_between_keyframes,
+                          options_.min_frames_between_slow_keyframes);
 }
 
 bool Tracker::defer_keyframe() {

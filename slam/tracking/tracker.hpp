@@ -11,6 +11,7 @@
 // Threads: track() is called from one thread; it holds SharedMap::mutex while it reads or
 // writes the map, not while it extracts features.
 #include <array>
+#include <deque>
 #include <memory>
 #include <opencv2/core/mat.hpp>
 #include <optional>
@@ -50,6 +51,23 @@ struct TrackingOptions {
   // (37-46 keyframes) was not better: 17.0 and 13.9 mm. keyframe_needs_idle_mapper restores
   // ORB-SLAM's rule (with min_frames_between_keyframes 0).
   int min_frames_between_keyframes = 4;
+  // ... but only for a camera that moved: over the last min_frames_between_slow_keyframes
+  // frames, its path (frame to frame) turned early_keyframe_rotation_deg or went
+  // early_keyframe_translation_m. A slower one waits min_frames_between_slow_keyframes frames.
+  // Why: the "too few of the reference's points tracked" condition holds at nearly every frame
+  // of a slow hand-held RGB-D sequence (a keyframe makes points of all its close keypoints, a
+  // frame re-finds about 70 % of them), so the 4-frame gap alone set the keyframe rate there.
+  // Sequential 7-Scenes 600f took a keyframe every 4-5 frames after 0.4-2.5 deg and 2-5 cm: 78
+  // keyframes against ORB-SLAM2's 42-55; with this rule 55, ATE 33.99 against 33.90 mm. fr1/rpy
+  // turns 5-20 deg between its keyframes and keeps its 35 (ATE median over start frames 0-7
+  // 15.89 mm, unchanged). A fixed 5 or 6 frames for every camera cost fr1/rpy 24-26 % (median
+  // 19.7, 20.0 mm), and so did measuring the motion since the last keyframe instead of over a
+  // window (19.6 mm): fr1/rpy swings back and pauses, and the sharp frame at the end of a swing
+  // is the keyframe it needs. docs/results/mapping-speed.md, sitting of 2026-11-28 afternoon.
+  // min_frames_between_slow_keyframes <= min_frames_between_keyframes: off.
+  double early_keyframe_rotation_deg = 4.0;
+  double early_keyframe_translation_m = 0.10;
+  int min_frames_between_slow_keyframes = 8;
   bool keyframe_needs_idle_mapper = false;
   int close_tracked_limit = 100;   // RGB-D rule: fewer close tracked points than this ...
   int close_untracked_limit = 70;  // ... and more close untracked ones => new keyframe
@@ -217,6 +235,9 @@ class Tracker {
   void update_local_map();
   enum class KeyframeNeed { kNo, kYes, kMapperBusy };
   KeyframeNeed need_keyframe() const;
+  // Frames since the last keyframe before the current frame may be an early keyframe
+  // (TrackingOptions::min_frames_between_slow_keyframes).
+  int min_frames_for_keyframe() const;
   // A needed keyframe is put off when this frame tracked far worse than the ones before it
   // (TrackingOptions::keyframe_defer_ratio) or far off the motion model's prediction
   // (keyframe_defer_deviation_deg); counts the deferrals in a row.
@@ -259,6 +280,9 @@ class Tracker {
   // Degrees between current_'s tracked rotation and the motion model's prediction (0 without
   // a velocity).
   double deviation_deg_ = 0.0;
+  // Degrees and metres from each tracked frame to the next, newest first, over the last
+  // min_frames_between_slow_keyframes frames (TrackingOptions::early_keyframe_rotation_deg).
+  std::deque<std::pair<double, double>> recent_motion_;
   // The last keyframe this tracker made, and the inliers of the frame it was made from.
   KeyframeId last_keyframe_;
   int last_keyframe_inliers_ = 0;

@@ -2,6 +2,7 @@
 // localizes in a fixed map (localization only) without adding anything to it.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <map>
 #include <numbers>
 #include <numeric>
@@ -167,6 +168,48 @@ TEST(Tracker, DecidesKeyframesWhateverTheMapperIsDoing) {
   const auto [orb_keyframes, orb_interrupts] = run(true, true);
   EXPECT_LT(orb_keyframes.size(), busy_keyframes.size());
   EXPECT_GE(orb_interrupts, static_cast<int>(orb_keyframes.size()) - 1);
+}
+
+// An early keyframe (one the frame needs before max_frames_between_keyframes) waits
+// min_frames_between_keyframes after the last one for a moving camera and
+// min_frames_between_slow_keyframes for a slow one: the same walk, seen as moving (thresholds 0)
+// and as slow (thresholds out of reach).
+TEST(Tracker, EarlyKeyframesWaitLongerForASlowCamera) {
+  SyntheticSceneOptions o;
+  o.frames = 30;
+  const SyntheticRgbdScene scene(o);
+  auto keyframes = [&](double threshold) {
+    TrackingOptions options;
+    options.early_keyframe_rotation_deg = threshold;
+    options.early_keyframe_translation_m = threshold;
+    options.min_frames_between_slow_keyframes = 12;
+    map::SharedMap shared;
+    RecordingSink sink;
+    Tracker tracker = make_tracker(shared, &sink, scene, options);
+    std::vector<int> made;
+    for (int i = 0; i < scene.size(); ++i) {
+      const SyntheticFrame f = scene.frame(i);
+      const TrackingResult r = tracker.track(f.color, f.depth, f.timestamp);
+      EXPECT_EQ(r.state, TrackingState::kOk);
+      if (r.keyframe) made.push_back(i);
+    }
+    return made;
+  };
+  const std::vector<int> moving = keyframes(0.0), slow = keyframes(1e9);
+  auto gaps = [](const std::vector<int>& made) {
+    std::vector<int> g;
+    for (std::size_t k = 1; k < made.size(); ++k)
+      g.push_back(made[k] - made[k - 1]);
+    return g;
+  };
+  const std::vector<int> moving_gaps = gaps(moving), slow_gaps = gaps(slow);
+  ASSERT_FALSE(slow_gaps.empty());
+  // The walk needs keyframes early: the moving camera gets them 4 frames apart ...
+  EXPECT_EQ(*std::min_element(moving_gaps.begin(), moving_gaps.end()), 4)
+      << ::testing::PrintToString(moving);
+  // ... the slow one 12.
+  EXPECT_EQ(*std::min_element(slow_gaps.begin(), slow_gaps.end()), 12)
+      << ::testing::PrintToString(slow);
 }
 
 // `frames` of `scene` (indices, in order) tracked with a sink, frame `blurred` smeared by a
