@@ -305,6 +305,7 @@ TEST(Tracker, PutsAKeyframeOffFromAFrameFarOffTheMotionModel) {
   options.keyframe_defer_ratio = 0.0;  // only the deviation decides here
   options.keyframe_defer_deviation_deg = 0.0;
   options.min_frames_between_keyframes = 0;  // frame 20 is tracked right after frame 11
+  options.min_frames_between_slow_keyframes = 0;
   const TrackedRun ungated = track_frames(scene, options, frames);
   ASSERT_TRUE(ungated.keyframe(jump_to));  // the new view asks for a keyframe
   options.keyframe_defer_deviation_deg = off_deg / 2;
