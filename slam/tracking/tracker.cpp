@@ -219,7 +219,7 @@ bool Tracker::track_frame(int image_rows, double timestamp, TrackingResult& resu
           static_cast<std::size_t>(std::max(options_.min_frames_between_slow_keyframes, 1));
       if (recent_motion_.size() > window) recent_motion_.resize(window);
       refine_rolling_shutter(image_rows);
-      velocity_ = current_.cam_from_world * last_.cam_from_world.inverse();
+      velocity_ = current_.cam_from_world * last_.cam_from_world.inverse();  // after the refinement
       has_velocity_ = true;
     }
     result.local_map_ms = stage.elapsed_ms();
