@@ -212,6 +212,7 @@ bool Tracker::track_frame(int image_rows, double timestamp, TrackingResult& resu
       deviation_deg_ = rotation_distance(current_.cam_from_world, predicted) * kDegPerRad;
     }
     if (last_.has_pose) {
+      // The motion as tracked, before the rolling-shutter refinement below moves the pose.
       const SE3 current_from_last = current_.cam_from_world * last_.cam_from_world.inverse();
       recent_motion_.push_front({current_from_last.so3().log().norm() * kDegPerRad,
                                  current_from_last.translation().norm()});
