@@ -170,48 +170,6 @@ TEST(Tracker, DecidesKeyframesWhateverTheMapperIsDoing) {
   EXPECT_GE(orb_interrupts, static_cast<int>(orb_keyframes.size()) - 1);
 }
 
-// An early keyframe (one the frame needs before max_frames_between_keyframes) waits
-// min_frames_between_keyframes after the last one for a moving camera and
-// min_frames_between_slow_keyframes for a slow one: the same walk, seen as moving (thresholds 0)
-// and as slow (thresholds out of reach).
-TEST(Tracker, EarlyKeyframesWaitLongerForASlowCamera) {
-  SyntheticSceneOptions o;
-  o.frames = 30;
-  const SyntheticRgbdScene scene(o);
-  auto keyframes = [&](double threshold) {
-    TrackingOptions options;
-    options.early_keyframe_rotation_deg = threshold;
-    options.early_keyframe_translation_m = threshold;
-    options.min_frames_between_slow_keyframes = 12;
-    map::SharedMap shared;
-    RecordingSink sink;
-    Tracker tracker = make_tracker(shared, &sink, scene, options);
-    std::vector<int> made;
-    for (int i = 0; i < scene.size(); ++i) {
-      const SyntheticFrame f = scene.frame(i);
-      const TrackingResult r = tracker.track(f.color, f.depth, f.timestamp);
-      EXPECT_EQ(r.state, TrackingState::kOk);
-      if (r.keyframe) made.push_back(i);
-    }
-    return made;
-  };
-  const std::vector<int> moving = keyframes(0.0), slow = keyframes(1e9);
-  auto gaps = [](const std::vector<int>& made) {
-    std::vector<int> g;
-    for (std::size_t k = 1; k < made.size(); ++k)
-      g.push_back(made[k] - made[k - 1]);
-    return g;
-  };
-  const std::vector<int> moving_gaps = gaps(moving), slow_gaps = gaps(slow);
-  ASSERT_FALSE(slow_gaps.empty());
-  // The walk needs keyframes early: the moving camera gets them 4 frames apart ...
-  EXPECT_EQ(*std::min_element(moving_gaps.begin(), moving_gaps.end()), 4)
-      << ::testing::PrintToString(moving);
-  // ... the slow one 12.
-  EXPECT_EQ(*std::min_element(slow_gaps.begin(), slow_gaps.end()), 12)
-      << ::testing::PrintToString(slow);
-}
-
 // `frames` of `scene` (indices, in order) tracked with a sink, frame `blurred` smeared by a
 // Gaussian of `sigma` pixels: which became keyframes, and each frame's inliers.
 struct TrackedRun {
@@ -316,6 +274,32 @@ TEST(Tracker, PutsAKeyframeOffFromAFrameFarOffTheMotionModel) {
   // keyframe_defer_deviation_max bounds the frames put off in a row; 0 puts none off.
   options.keyframe_defer_deviation_max = 0;
   EXPECT_TRUE(track_frames(scene, options, frames).keyframe(jump_to));
+}
+
+// An early keyframe (one the frame needs before max_frames_between_keyframes) waits
+// min_frames_between_keyframes after the last one for a moving camera and
+// min_frames_between_slow_keyframes for a slow one: the same walk, seen as moving (thresholds 0)
+// and as slow (thresholds out of reach).
+TEST(Tracker, EarlyKeyframesWaitLongerForASlowCamera) {
+  SyntheticSceneOptions o;
+  o.frames = 30;
+  const SyntheticRgbdScene scene(o);
+  std::vector<int> all(static_cast<std::size_t>(scene.size()));
+  std::iota(all.begin(), all.end(), 0);
+  auto smallest_gap = [&](double threshold) {
+    TrackingOptions options;
+    options.early_keyframe_rotation_deg = threshold;
+    options.early_keyframe_translation_m = threshold;
+    options.min_frames_between_slow_keyframes = 12;
+    const std::vector<int> made = track_frames(scene, options, all).keyframes;
+    int gap = scene.size();
+    for (std::size_t k = 1; k < made.size(); ++k)
+      gap = std::min(gap, made[k] - made[k - 1]);
+    return gap;
+  };
+  // The walk needs keyframes early: the moving camera gets them 4 frames apart, the slow one 12.
+  EXPECT_EQ(smallest_gap(0.0), 4);
+  EXPECT_EQ(smallest_gap(1e9), 12);
 }
 
 TEST(Tracker, WithoutASinkLocalizesInAFixedMapAndLeavesItAsItWas) {
