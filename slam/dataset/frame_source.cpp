@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <exception>
+#include <mutex>
 #include <thread>
 
 #include "slam/core/bounded_queue.hpp"
@@ -67,7 +68,7 @@ class PacedFrames final : public FrameSource {
 class ReadAheadFrames final : public FrameSource {
  public:
   ReadAheadFrames(std::unique_ptr<FrameSource> source, std::size_t capacity)
-      : source_(std::move(source)), queue_(capacity), total_(source_->remaining()) {
+      : source_(std::move(source)), queue_(capacity), source_remaining_(source_->remaining()) {
     reader_ = std::thread([this] { read(); });
   }
   ~ReadAheadFrames() override {
@@ -81,13 +82,16 @@ class ReadAheadFrames final : public FrameSource {
     auto item = queue_.pop();
     if (!item) return std::nullopt;  // the end of the source
     if (item->error) std::rethrow_exception(item->error);
-    handed_.fetch_add(1);
+    {
+      const std::lock_guard lock(count_mutex_);
+      ++handed_;
+    }
     return std::move(item->frame);
   }
-  // Frames not handed out yet (those in the queue included), 0 for an endless source.
+  // Frames not handed out yet: the source's own count plus those read and not handed out.
   std::size_t remaining() const override {
-    const std::size_t gone = handed_.load() + skipped_.load();
-    return total_ > gone ? total_ - gone : 0;
+    const std::lock_guard lock(count_mutex_);
+    return source_remaining_ + read_ - handed_;
   }
   std::size_t skipped() const override { return skipped_.load(); }
 
@@ -100,6 +104,12 @@ class ReadAheadFrames final : public FrameSource {
   void read() {
     try {
       while (auto frame = source_->next()) {
+        {
+          // Both at once, so remaining() never sees a frame in flight twice or not at all.
+          const std::lock_guard lock(count_mutex_);
+          ++read_;
+          source_remaining_ = source_->remaining();
+        }
         skipped_.store(source_->skipped());
         if (!queue_.push(Item{std::move(*frame), nullptr})) return;  // the consumer left
       }
@@ -112,8 +122,10 @@ class ReadAheadFrames final : public FrameSource {
 
   std::unique_ptr<FrameSource> source_;
   BoundedQueue<Item> queue_;
-  const std::size_t total_;  // the source's count before the first read
-  std::atomic<std::size_t> handed_{0}, skipped_{0};
+  mutable std::mutex count_mutex_;
+  std::size_t source_remaining_;       // the source's remaining() after its last read
+  std::size_t read_ = 0, handed_ = 0;  // frames read from the source, handed out by next()
+  std::atomic<std::size_t> skipped_{0};
   std::thread reader_;
 };
 
