@@ -52,6 +52,7 @@ int main(int argc, char** argv) {
   coloc::cli::add_capture_verb(app, bench);
   coloc::cli::add_record_verb(app);
   coloc::cli::add_calibrate_verb(app);
+  coloc::cli::add_bench_site_verb(bench);
 
   try {
     app.parse(argc, argv);

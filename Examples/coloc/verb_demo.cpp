@@ -5,11 +5,8 @@
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
-#include <signal.h>
-#include <spawn.h>
 #include <spdlog/spdlog.h>
 #include <sys/socket.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -20,6 +17,7 @@
 #include <optional>
 #include <random>
 
+#include "Examples/coloc/child_verb.hpp"
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "slam/core/timing.hpp"
@@ -49,90 +47,6 @@ struct DemoSummary {
   std::optional<double> fused_head_m;             // fused head poses vs truth in the scan frame
   std::size_t fused_poses = 0, headset_poses = 0;
 };
-
-std::string shown_command(const std::vector<std::string>& args) {
-  std::string shown = "coloc";
-  for (const auto& a : args)
-    shown += " " + a;
-  return shown;
-}
-
-// Starts `coloc ARGS...` (this very executable) with `actions` (null: none) on its file
-// descriptors; throws CliFailure when it cannot start.
-pid_t spawn_self(const std::vector<std::string>& args, const posix_spawn_file_actions_t* actions) {
-  std::vector<std::string> argv_store = {"coloc"};
-  argv_store.insert(argv_store.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  argv.reserve(argv_store.size() + 1);
-  for (auto& a : argv_store)
-    argv.push_back(a.data());
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  if (posix_spawn(&pid, "/proc/self/exe", actions, nullptr, argv.data(), environ) != 0)
-    throw CliFailure("cannot start: " + shown_command(args));
-  return pid;
-}
-
-// Starts `coloc ARGS...`, printing the command first (" &" when the demo goes on without
-// waiting).
-pid_t start_verb(const std::vector<std::string>& args, bool background = false) {
-  std::printf("  $ %s%s\n", shown_command(args).c_str(), background ? " &" : "");
-  std::fflush(stdout);
-  return spawn_self(args, nullptr);
-}
-
-void wait_verb(pid_t pid, const std::string& shown) {
-  int status = 0;
-  if (waitpid(pid, &status, 0) < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    throw CliFailure("step failed: " + shown);
-}
-
-// Runs `coloc ARGS...` and waits; throws CliFailure when it fails.
-void run_verb(const std::vector<std::string>& args) {
-  wait_verb(start_verb(args), shown_command(args));
-}
-
-// Runs `coloc ARGS... --json` with its stdout captured and waits; throws CliFailure when it
-// fails or prints no JSON.
-Json capture_verb(std::vector<std::string> args) {
-  args.emplace_back("--json");
-  const std::string shown = shown_command(args);
-  std::printf("  $ %s\n", shown.c_str());
-  std::fflush(stdout);
-  int pipe_fds[2];
-  if (pipe(pipe_fds) != 0) throw CliFailure("cannot start: " + shown);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDOUT_FILENO);
-  posix_spawn_file_actions_addclose(&actions, pipe_fds[0]);
-  pid_t pid = -1;
-  try {
-    pid = spawn_self(args, &actions);
-  } catch (...) {
-    posix_spawn_file_actions_destroy(&actions);
-    close(pipe_fds[0]);
-    close(pipe_fds[1]);
-    throw;
-  }
-  posix_spawn_file_actions_destroy(&actions);
-  close(pipe_fds[1]);
-  std::string out;
-  char buffer[4096];
-  ssize_t n = 0;
-  while ((n = read(pipe_fds[0], buffer, sizeof(buffer))) > 0)
-    out.append(buffer, static_cast<std::size_t>(n));
-  close(pipe_fds[0]);
-  wait_verb(pid, shown);
-  const Json document = Json::parse(out, nullptr, false);
-  if (document.is_discarded()) throw CliFailure("no JSON from: " + shown);
-  return document;
-}
-
-// Ends a verb started in the background (SIGINT, as a user would) and waits for it.
-void stop_verb(pid_t pid, const std::string& shown) {
-  kill(pid, SIGINT);
-  wait_verb(pid, shown);
-}
 
 // A UDP port free on loopback now (the fusion node binds it right after).
 int free_udp_port() {

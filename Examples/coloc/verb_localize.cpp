@@ -69,6 +69,7 @@ struct LocalizeArgs {
   int runs = 1;
   int cold_starts = 50;
   std::uint64_t seed = 1;
+  int every = 1;  // bench: every Nth frame of the sequence is read
 };
 
 // cam_from_head (4x4, OpenCV YAML key `cam_from_head`, or `cam_from_headset` as the twin's
@@ -404,34 +405,15 @@ std::uint64_t resident_bytes() {
   return resident * static_cast<std::uint64_t>(sysconf(_SC_PAGESIZE));
 }
 
-void run_bench(const LocalizeArgs& args) {
-  LocalizeInputs in{load_vocabulary(args.vocabulary), nullptr, {}, nullptr};
-  const std::uint64_t rss_before = resident_bytes();
-  in.map = slam::localize::load_localization_map(args.map, in.vocabulary);
-  const std::uint64_t rss_after = resident_bytes();
-  in.settings = choose_settings(args, *in.map);
-  in.sequence = open_sequence_for(args.sequence, in.settings);
-  const dataset::Sequence& sequence = *in.sequence;
-  // Frames are read once, up front: the timing is the localizer's, not the PNG decoder's.
-  std::vector<dataset::Frame> frames;
-  for (std::size_t i = 0; i < sequence.size(); ++i) {
-    if (auto f = read_frame(sequence, i)) {
-      f->color = dataset::to_camera_order(f->color, in.settings.rgb_order);
-      frames.push_back(std::move(*f));
-    }
-  }
+// The timed passes over `frames` (bench localize), one row each.
+Json bench_runs(const LocalizeArgs& args, const LocalizeInputs& in,
+                const std::vector<dataset::Frame>& frames) {
   const auto options = slam::localize::options_from_settings(in.settings);
-  std::printf("map %s: %zu keyframes, %zu points, resident %.1f MB (%.1f kB per keyframe)\n",
-              args.map.string().c_str(), in.map->keyframes(), in.map->points(),
-              static_cast<double>(rss_after - rss_before) / 1e6,
-              static_cast<double>(rss_after - rss_before) / 1e3 /
-                  static_cast<double>(std::max<std::size_t>(1, in.map->keyframes())));
-  std::printf("sequence %s: %zu frames %dx%d\n", args.sequence.string().c_str(), frames.size(),
-              frames.empty() ? 0 : frames.front().color.cols,
-              frames.empty() ? 0 : frames.front().color.rows);
-  std::printf("%4s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %6s %5s %5s\n", "run", "extr_med",
-              "extr_p99", "pose_med", "pose_p99", "lmap_med", "lmap_p99", "total_med", "total_p99",
-              "cpu_med", "cpu_p99", "loc", "lost", "reloc");
+  if (!args.json)
+    std::printf("%4s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %6s %5s %5s\n", "run", "extr_med",
+                "extr_p99", "pose_med", "pose_p99", "lmap_med", "lmap_p99", "total_med",
+                "total_p99", "cpu_med", "cpu_p99", "loc", "lost", "reloc");
+  Json rows = Json::array();
   for (int run = 0; run < args.runs; ++run) {
     Localizer localizer(*in.map, in.vocabulary, in.settings, options);
     std::vector<double> extract, pose, lmap, total, cpu;
@@ -445,6 +427,13 @@ void run_bench(const LocalizeArgs& args) {
       total.push_back(r.total_ms);
     }
     const auto& s = localizer.stats();
+    rows.push_back({{"ms_median", quantile(total, 0.5)},
+                    {"ms_p99", quantile(total, 0.99)},
+                    {"cpu_ms_median", quantile(cpu, 0.5)},
+                    {"localized", s.localized},
+                    {"lost", s.lost},
+                    {"relocalizations", s.relocalizations}});
+    if (args.json) continue;
     std::printf(
         "%4d %9.2f %9.2f %9.2f %9.2f %9.2f %9.2f %9.2f %9.2f %9.2f %9.2f %6llu %5llu %5llu\n",
         run + 1, quantile(extract, 0.5), quantile(extract, 0.99), quantile(pose, 0.5),
@@ -453,15 +442,22 @@ void run_bench(const LocalizeArgs& args) {
         static_cast<unsigned long long>(s.localized), static_cast<unsigned long long>(s.lost),
         static_cast<unsigned long long>(s.relocalizations));
   }
-  std::printf(
-      "ms per frame (wall): extraction (extr), initial pose: motion model or relocalization "
-      "(pose),\nlocal-map tracking (lmap), the whole localize() call (total); cpu: the calling "
-      "thread's CPU time\nfor the whole call (what the frame costs on a loaded machine)\n");
-  if (args.cold_starts <= 0 || frames.empty()) return;
-  // Cold starts: a fresh localizer whose first frame is a random one of the sequence.
+  if (!args.json && args.runs > 0)
+    std::printf(
+        "ms per frame (wall): extraction (extr), initial pose: motion model or relocalization "
+        "(pose),\nlocal-map tracking (lmap), the whole localize() call (total); cpu: the calling "
+        "thread's CPU time\nfor the whole call (what the frame costs on a loaded machine)\n");
+  return rows;
+}
+
+// Cold starts (bench localize): a fresh localizer whose first frame is a random one of `frames`.
+Json bench_cold_starts(const LocalizeArgs& args, const LocalizeInputs& in,
+                       const std::vector<dataset::Frame>& frames) {
+  if (args.cold_starts <= 0 || frames.empty()) return Json();
   std::mt19937_64 rng(args.seed);
   std::uniform_int_distribution<std::size_t> pick(0, frames.size() - 1);
-  Localizer localizer(*in.map, in.vocabulary, in.settings, options);
+  Localizer localizer(*in.map, in.vocabulary, in.settings,
+                      slam::localize::options_from_settings(in.settings));
   std::vector<double> ms_ok, ms_all;
   int ok = 0;
   for (int k = 0; k < args.cold_starts; ++k) {
@@ -474,12 +470,58 @@ void run_bench(const LocalizeArgs& args) {
       ms_ok.push_back(r.total_ms);
     }
   }
-  std::printf(
-      "cold start (first frame anywhere, seed %llu): %d of %d localized (%.0f %%), ms to first "
-      "pose median %.2f, p99 %.2f (all attempts: median %.2f)\n",
-      static_cast<unsigned long long>(args.seed), ok, args.cold_starts,
-      100.0 * ok / args.cold_starts, ms_ok.empty() ? 0.0 : quantile(ms_ok, 0.5),
-      ms_ok.empty() ? 0.0 : quantile(ms_ok, 0.99), quantile(ms_all, 0.5));
+  const double median = ms_ok.empty() ? 0.0 : quantile(ms_ok, 0.5);
+  const double p99 = ms_ok.empty() ? 0.0 : quantile(ms_ok, 0.99);
+  if (!args.json)
+    std::printf(
+        "cold start (first frame anywhere, seed %llu): %d of %d localized (%.0f %%), ms to first "
+        "pose median %.2f, p99 %.2f (all attempts: median %.2f)\n",
+        static_cast<unsigned long long>(args.seed), ok, args.cold_starts,
+        100.0 * ok / args.cold_starts, median, p99, quantile(ms_all, 0.5));
+  return {{"attempts", args.cold_starts},
+          {"localized", ok},
+          {"ms_median", median},
+          {"ms_p99", p99},
+          {"ms_median_all", quantile(ms_all, 0.5)}};
+}
+
+void run_bench(const LocalizeArgs& args) {
+  LocalizeInputs in{load_vocabulary(args.vocabulary), nullptr, {}, nullptr};
+  const std::uint64_t rss_before = resident_bytes();
+  in.map = slam::localize::load_localization_map(args.map, in.vocabulary);
+  const std::uint64_t rss_after = resident_bytes();
+  in.settings = choose_settings(args, *in.map);
+  in.sequence = open_sequence_for(args.sequence, in.settings);
+  const dataset::Sequence& sequence = *in.sequence;
+  // Frames are read once, up front: the timing is the localizer's, not the PNG decoder's
+  // (--every keeps a long walk's frames within memory).
+  std::vector<dataset::Frame> frames;
+  for (std::size_t i = 0; i < sequence.size(); i += static_cast<std::size_t>(args.every)) {
+    if (auto f = read_frame(sequence, i)) {
+      f->color = dataset::to_camera_order(f->color, in.settings.rgb_order);
+      frames.push_back(std::move(*f));
+    }
+  }
+  const double map_mb = static_cast<double>(rss_after - rss_before) / 1e6;
+  const std::size_t keyframes = in.map->keyframes();
+  if (!args.json) {
+    std::printf("map %s: %zu keyframes, %zu points, resident %.1f MB (%.1f kB per keyframe)\n",
+                args.map.string().c_str(), keyframes, in.map->points(), map_mb,
+                1e3 * map_mb / static_cast<double>(std::max<std::size_t>(1, keyframes)));
+    std::printf("sequence %s: %zu frames %dx%d (every %d)\n", args.sequence.string().c_str(),
+                frames.size(), frames.empty() ? 0 : frames.front().color.cols,
+                frames.empty() ? 0 : frames.front().color.rows, args.every);
+  }
+  const Json runs = bench_runs(args, in, frames);
+  const Json cold = bench_cold_starts(args, in, frames);
+  if (args.json)
+    print_json({{"map_keyframes", keyframes},
+                {"map_points", in.map->points()},
+                {"map_resident_mb", map_mb},
+                {"frames", frames.size()},
+                {"every", args.every},
+                {"runs", runs},
+                {"cold_start", cold}});
 }
 
 }  // namespace
@@ -550,10 +592,14 @@ void add_localize_verb(CLI::App& app, CLI::App& bench) {
       ->check(CLI::ExistingDirectory);
   b->add_option("--config", args->config, "Camera settings YAML (default: the map's)");
   b->add_option("--vocabulary", args->vocabulary, "BoW vocabulary");
-  b->add_option("--runs", args->runs, "Passes over the sequence")->check(CLI::Range(1, 100));
+  b->add_option("--runs", args->runs, "Passes over the sequence (0: cold starts only)")
+      ->check(CLI::Range(0, 100));
   b->add_option("--cold-starts", args->cold_starts, "Random first frames to relocalize")
       ->check(CLI::Range(0, 100000));
   b->add_option("--seed", args->seed, "Seed of the random frames")->capture_default_str();
+  b->add_option("--every", args->every, "Read every Nth frame (a long walk's frames in memory)")
+      ->check(CLI::Range(1, 1000));
+  b->add_flag("--json", args->json, "Machine-readable summary");
   b->callback([args] { run_bench(*args); });
 }
 

@@ -161,11 +161,17 @@ void print_map_result(const MapArgs& args, const slam::pipeline::RunResult& r) {
                 {"ate_rmse_online_m", r.ate_online ? Json(r.ate_online->translation.rmse) : Json()},
                 {"ate_keyframes_rmse_m",
                  r.ate_keyframes ? Json(r.ate_keyframes->translation.rmse) : Json()},
-                {"skipped_frames", r.skipped_frames}});
+                {"skipped_frames", r.skipped_frames},
+                {"late_frames", r.late_frames},
+                {"global_ba_ms", r.global_ba ? Json(r.global_ba->ms) : Json()},
+                {"global_ba_keyframes", r.global_ba ? Json(r.global_ba->keyframes) : Json()}});
   } else {
     std::cout << s.describe() << "\n";
     if (r.skipped_frames > 0)
       std::cout << "skipped " << r.skipped_frames << " unreadable frames (see the warnings)\n";
+    if (r.late_frames > 0)
+      std::cout << r.late_frames
+                << " frames tracked a frame interval or more late (a live camera drops them)\n";
     if (r.global_ba)
       std::cout << "global BA: " << r.global_ba->keyframes << " keyframes, " << r.global_ba->points
                 << " points, rms " << r.global_ba->initial_rms_px << " -> "

@@ -47,5 +47,7 @@ void add_scan_verb(CLI::App& app);
 // `coloc view` and `coloc bench view` (verb_view.cpp, verb_view_bench.cpp).
 void add_view_verb(CLI::App& app, CLI::App& bench);
 void add_view_bench_verb(CLI::App& bench);
+// `coloc bench site` (verb_bench_site.cpp).
+void add_bench_site_verb(CLI::App& bench);
 
 }  // namespace coloc::cli

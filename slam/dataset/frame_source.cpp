@@ -48,20 +48,30 @@ class PacedFrames final : public FrameSource {
     using Clock = std::chrono::steady_clock;
     if (!first_) {
       first_ = frame->timestamp;
+      previous_ = frame->timestamp;
       start_ = Clock::now();
       return frame;
     }
-    const auto due = start_ + std::chrono::duration_cast<Clock::duration>(
-                                  std::chrono::duration<double>(frame->timestamp - *first_));
+    const auto at = [&](double t) {
+      return start_ + std::chrono::duration_cast<Clock::duration>(
+                          std::chrono::duration<double>(t - *first_));
+    };
+    const auto due = at(frame->timestamp);
+    // The next frame's time is unknown here; the gap to the previous one stands for it.
+    if (Clock::now() >= at(2.0 * frame->timestamp - previous_)) ++late_;
+    previous_ = frame->timestamp;
     std::this_thread::sleep_until(due);
     return frame;
   }
   std::size_t remaining() const override { return source_->remaining(); }
   std::size_t skipped() const override { return source_->skipped(); }
+  std::size_t late() const override { return late_; }
 
  private:
   std::unique_ptr<FrameSource> source_;
   std::optional<double> first_;
+  double previous_ = 0.0;  // timestamp of the frame handed out before
+  std::size_t late_ = 0;
   std::chrono::steady_clock::time_point start_;
 };
 

@@ -18,6 +18,9 @@ class FrameSource {
   virtual std::size_t remaining() const { return 0; }
   // Frames that could not be read and were skipped (each named in a warning).
   virtual std::size_t skipped() const { return 0; }
+  // Frames handed out a frame interval or more after their time (paced sources only): a live
+  // camera, which keeps only its newest frame, would have dropped at least one frame each time.
+  virtual std::size_t late() const { return 0; }
 };
 
 // The frames of `sequence` in order; an unreadable frame is skipped with a warning and counted
@@ -27,7 +30,8 @@ std::unique_ptr<FrameSource> frames_of(const Sequence& sequence);
 // Frames of `source` handed out as a live camera delivers them: frame i no earlier than
 // (t_i - t_0) seconds after the first was handed out, never dropped (a consumer slower than the
 // camera falls behind, as ORB-SLAM2's rgbd_tum does). What the consumer does with the wait (the
-// mapper's thread gets it) is what separates a paced run from an unpaced one.
+// mapper's thread gets it) is what separates a paced run from an unpaced one. Frames asked for
+// a frame interval (the gap to the frame before) or more after their time are counted (late()).
 std::unique_ptr<FrameSource> paced(std::unique_ptr<FrameSource> source);
 
 // The frames of `source`, read on a thread of their own up to `capacity` frames ahead: the same

@@ -96,6 +96,7 @@ RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
   }
   progress.finish();
   r.skipped_frames = frames.skipped() + unusable;
+  r.late_frames = frames.late();
   if (tracked == 0)
     throw Error(r.skipped_frames > 0
                     ? "no frame of the sequence could be read or used (see the warnings)"

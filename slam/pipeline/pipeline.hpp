@@ -66,6 +66,9 @@ struct RunResult {
   // (RunOptions::compare_imu).
   std::optional<eval::AteResult> ate_vision, ate_gravity;
   std::size_t skipped_frames = 0;  // unreadable images (named in the log)
+  // Paced: frames tracking asked for a frame interval or more late, which a live camera would
+  // have dropped (dataset::FrameSource::late).
+  std::size_t late_frames = 0;
 };
 
 // How the sequence overload of run_slam delivers a recording's frames: "sequential",

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <memory>
+#include <thread>
 
 #include "slam/core/error.hpp"
 #include "slam/dataset/frame_source.hpp"
@@ -48,6 +49,25 @@ TEST(PacedFrames, HandsEveryFrameOutNoEarlierThanItsTimestamp) {
   }
   EXPECT_EQ(n, stamps.size());
   EXPECT_EQ(source->skipped(), 3u);  // the wrapped source's count
+}
+
+TEST(PacedFrames, CountsTheFramesAskedForAFrameIntervalLate) {
+  // Frames every 10 ms; the consumer dawdles past the next frame's time plus an interval before
+  // asking for frames 1 and 2, so those two are late however loaded the machine is (a sleep
+  // lasts at least its time), and frame 3, asked for at once, may be late on a busy machine.
+  const std::vector<double> stamps{5.00, 5.01, 5.02, 5.03};
+  auto source = paced(std::make_unique<ListedFrames>(stamps));
+  ASSERT_TRUE(source->next());
+  const auto start = std::chrono::steady_clock::now();  // no earlier than the pacer's start
+  for (std::size_t k = 1; k <= 2; ++k) {
+    std::this_thread::sleep_until(
+        start + std::chrono::duration<double>(stamps[k] - stamps[0] + 0.01 + 0.005));
+    ASSERT_TRUE(source->next());
+  }
+  ASSERT_TRUE(source->next());
+  EXPECT_FALSE(source->next());
+  EXPECT_GE(source->late(), 2u);
+  EXPECT_LE(source->late(), 3u);
 }
 
 // Frames 0..n-1; frame `bad` throws instead (an unreadable file the source cannot skip).
