@@ -1,5 +1,7 @@
 #include "registration/align/scan_cloud.hpp"
 
+#include <spdlog/spdlog.h>
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -8,6 +10,7 @@
 #include "e57io/error.hpp"
 #include "e57io/reader.hpp"
 #include "registration/align/point_file.hpp"
+#include "registration/align/voxel_grid.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
 
@@ -15,14 +18,14 @@ namespace coloc::registration::align {
 
 namespace {
 
-// 21 bits per axis: +-1M voxels, 10 km at 1 cm.
-std::uint64_t voxel_key(const Eigen::Vector3f& p, double inv_size) {
-  constexpr std::int64_t kHalf = 1 << 20;
-  const auto axis = [&](float v) {
-    const auto i = static_cast<std::int64_t>(std::floor(static_cast<double>(v) * inv_size));
-    return static_cast<std::uint64_t>(std::clamp<std::int64_t>(i + kHalf, 0, 2 * kHalf - 1));
-  };
-  return (axis(p.x()) << 42) | (axis(p.y()) << 21) | axis(p.z());
+// The splat of a voxel (scan_cloud.hpp): the voxel's size, or range_splat_factor times the
+// mean spacing of its points when larger.
+float base_splat(const ScanCloudOptions& o) {
+  return static_cast<float>(std::max(o.voxel_size, 0.005) * o.splat_factor);
+}
+float splat_of(const ScanCloudOptions& o, double spacing) {
+  return static_cast<float>(
+      std::max(static_cast<double>(base_splat(o)), o.range_splat_factor * spacing));
 }
 
 std::uint8_t to_byte(double v, double lo, double hi) {
@@ -38,6 +41,7 @@ void ScanCloudOptions::check() const {
   if (!(range_splat_factor >= 0.0)) throw Error("must be >= 0", {.field = "range_splat_factor"});
   if (!(max_splat_pixels >= 1.0f)) throw Error("must be >= 1", {.field = "max_splat_pixels"});
   if (!(max_range >= 0.0)) throw Error("must be >= 0 (metres)", {.field = "max_range"});
+  if (chunk_points < 1) throw Error("must be >= 1", {.field = "chunk_points"});
   stray.check();
 }
 
@@ -45,12 +49,9 @@ render::PointCloud voxel_downsample(const render::PointCloud& cloud, const ScanC
   o.check();
   render::PointCloud out;
   out.max_splat_pixels = o.max_splat_pixels;
-  out.splat_size = static_cast<float>(std::max(o.voxel_size, 0.005) * o.splat_factor);
+  out.splat_size = base_splat(o);
   const bool spaced = !cloud.splat_sizes.empty() && o.range_splat_factor > 0.0;
-  const auto splat = [&](double spacing) {
-    return static_cast<float>(
-        std::max(static_cast<double>(out.splat_size), o.range_splat_factor * spacing));
-  };
+  const auto splat = [&](double spacing) { return splat_of(o, spacing); };
   if (o.voxel_size <= 0.0) {
     out.points = cloud.points;
     out.colours = cloud.colours;
@@ -116,10 +117,13 @@ Eigen::Isometry3d world_from_scan_of(const e57::Data3D& d) {
   return t;
 }
 
-// Appends scan `si`'s valid points (file frame), colours and spacings (range * angular step).
+using Progress = std::function<void(std::uint64_t, std::uint64_t)>;
+using Sink = std::function<void(const ScanPiece&)>;
+
+// Scan `si`'s valid points (file frame), colours and spacings (range * angular step), piece by
+// piece.
 void read_scan(const e57::Reader& reader, std::size_t si, const ScanCloudOptions& o,
-               render::PointCloud& all, ScanCloudStats& s, std::uint64_t total,
-               const std::function<void(std::uint64_t, std::uint64_t)>& progress) {
+               const Sink& sink, ScanCloudStats& s, std::uint64_t total, const Progress& progress) {
   const e57::Data3D& d = reader.scans()[si];
   const std::uint32_t intensity = e57::field_bit(e57::PointField::kIntensity);
   const std::uint32_t invalid = e57::field_bit(e57::PointField::kCartesianInvalidState);
@@ -135,45 +139,46 @@ void read_scan(const e57::Reader& reader, std::size_t si, const ScanCloudOptions
       std::sqrt(4.0 * std::numbers::pi / std::max(static_cast<double>(d.point_count), 1.0));
   e57::PointStream stream = reader.open_points(si, mask);
   e57::PointBuffer b;
-  while (stream.read(b, 1 << 16) > 0) {
+  ScanPiece piece;
+  while (stream.read(b, o.chunk_points) > 0) {
+    piece.points.clear();
+    piece.colours.clear();
+    piece.spacings.clear();
     for (std::size_t i = 0; i < b.size; ++i) {
       if (!b.cartesian_invalid_state.empty() && b.cartesian_invalid_state[i] != 0) continue;
       const Eigen::Vector3d local(b.cartesian_x[i], b.cartesian_y[i], b.cartesian_z[i]);
       if (o.max_range > 0.0 && local.norm() > o.max_range) continue;
-      all.points.push_back((world_from_scan * local).cast<float>());
-      all.splat_sizes.push_back(static_cast<float>(std::max(local.norm() * step, 1e-4)));
+      piece.points.push_back((world_from_scan * local).cast<float>());
+      piece.spacings.push_back(static_cast<float>(std::max(local.norm() * step, 1e-4)));
       if (has_rgb) {
-        all.colours.push_back({to_byte(b.color_red[i], cl.red_min, cl.red_max),
-                               to_byte(b.color_green[i], cl.green_min, cl.green_max),
-                               to_byte(b.color_blue[i], cl.blue_min, cl.blue_max)});
+        piece.colours.push_back({to_byte(b.color_red[i], cl.red_min, cl.red_max),
+                                 to_byte(b.color_green[i], cl.green_min, cl.green_max),
+                                 to_byte(b.color_blue[i], cl.blue_min, cl.blue_max)});
       } else if (has_i) {
         const std::uint8_t g = to_byte(b.intensity[i], il.minimum, il.maximum);
-        all.colours.push_back({g, g, g});
+        piece.colours.push_back({g, g, g});
       } else {
-        all.colours.push_back({128, 128, 128});
+        piece.colours.push_back({128, 128, 128});
       }
     }
+    sink(piece);
     s.points_read += b.size;
     if (progress) progress(s.points_read, total);
   }
 }
 
 // Every scan of an E57 file with cartesian coordinates, in the file's frame.
-void read_e57(const std::filesystem::path& path, const ScanCloudOptions& o, render::PointCloud& all,
-              ScanCloudStats& s,
-              const std::function<void(std::uint64_t, std::uint64_t)>& progress) {
+void read_e57(const std::filesystem::path& path, const ScanCloudOptions& o, const Sink& sink,
+              ScanCloudStats& s, const Progress& progress) {
   try {
     const e57::Reader reader(path);
     std::uint64_t total = 0;
     for (const e57::Data3D& d : reader.scans())
       total += d.point_count;
-    all.points.reserve(total);
-    all.colours.reserve(total);
-    all.splat_sizes.reserve(total);
     for (std::size_t si = 0; si < reader.scans().size(); ++si) {
       if ((reader.scans()[si].field_mask & kXyz) != kXyz) continue;
       ++s.scans;
-      read_scan(reader, si, o, all, s, total, progress);
+      read_scan(reader, si, o, sink, s, total, progress);
     }
   } catch (const e57::Error& e) {
     throw Error(std::string("cannot read the scan: ") + e.what(), {.file = path.string()});
@@ -182,45 +187,111 @@ void read_e57(const std::filesystem::path& path, const ScanCloudOptions& o, rend
 
 // A PLY or PCD cloud (point_file.hpp): no stations, so no spacing per point: the splats are
 // the voxel's size. Grey where the file has no colour.
-void read_point_file(const std::filesystem::path& path, const ScanCloudOptions& o,
-                     render::PointCloud& all, ScanCloudStats& s,
-                     const std::function<void(std::uint64_t, std::uint64_t)>& progress) {
+void read_point_file(const std::filesystem::path& path, const ScanCloudOptions& o, const Sink& sink,
+                     ScanCloudStats& s, const Progress& progress) {
   PointFileReader reader(path);
   s.scans = 1;
   s.colour = reader.has_colour();
   PointBatch batch;
-  while (const std::size_t n = reader.read(batch, 1 << 16)) {
+  ScanPiece piece;
+  while (const std::size_t n = reader.read(batch, o.chunk_points)) {
+    piece.points.clear();
+    piece.colours.clear();
     for (std::size_t i = 0; i < batch.points.size(); ++i) {
       const Eigen::Vector3f& p = batch.points[i];
       if (o.max_range > 0.0 && p.norm() > o.max_range) continue;
-      all.points.push_back(p);
-      all.colours.push_back(s.colour ? batch.colours[i]
-                                     : std::array<std::uint8_t, 3>{128, 128, 128});
+      piece.points.push_back(p);
+      piece.colours.push_back(s.colour ? batch.colours[i]
+                                       : std::array<std::uint8_t, 3>{128, 128, 128});
     }
+    sink(piece);
     s.points_read += n;
     if (progress) progress(s.points_read, reader.points_declared());
   }
 }
 
+// The stations' spacings give the finest-stations rule and the range splats (scan_cloud.hpp).
+void add_piece(VoxelGrid& grid, const ScanPiece& piece) {
+  for (std::size_t i = 0; i < piece.points.size(); ++i)
+    grid.add(piece.points[i], piece.colours[i], piece.spacings.empty() ? 0.0f : piece.spacings[i]);
+}
+
+// The thinned cloud of a file, built while it is read (voxel_grid.hpp); a second reading when
+// some voxels' sums need it.
+render::PointCloud read_voxel_grid(const std::filesystem::path& path, const ScanCloudOptions& o,
+                                   ScanCloudStats& s, std::uint64_t& valid,
+                                   const Progress& progress) {
+  const bool spaced =
+      detect_point_file(path) == PointFileFormat::kE57 && o.range_splat_factor > 0.0;
+  VoxelGrid grid(o.voxel_size, spaced);
+  read_scan_pieces(
+      path, o,
+      [&](const ScanPiece& piece) {
+        valid += piece.points.size();
+        add_piece(grid, piece);
+      },
+      &s, progress);
+  spdlog::debug("scan voxel grid: {} voxels, {:.0f} MB, {} to sum again", grid.voxels(),
+                static_cast<double>(grid.bytes()) / 1e6, grid.ambiguous());
+  if (grid.ambiguous() > 0) {
+    spdlog::info("scan: reading again for {} of {} voxels (finest stations)", grid.ambiguous(),
+                 grid.voxels());
+    grid.begin_second_pass();
+    read_scan_pieces(path, o, [&](const ScanPiece& piece) { add_piece(grid, piece); });
+  }
+  render::PointCloud out = grid.take_means();
+  out.max_splat_pixels = o.max_splat_pixels;
+  out.splat_size = base_splat(o);
+  for (float& side : out.splat_sizes)
+    side = splat_of(o, side);  // the mean spacing in, the splat out
+  return out;
+}
+
 }  // namespace
 
-render::PointCloud load_scan_cloud(
-    const std::filesystem::path& path, const ScanCloudOptions& o, ScanCloudStats* stats,
-    const std::function<void(std::uint64_t, std::uint64_t)>& progress) {
+void read_scan_pieces(const std::filesystem::path& path, const ScanCloudOptions& o,
+                      const Sink& sink, ScanCloudStats* stats, const Progress& progress) {
+  o.check();
+  ScanCloudStats s;
+  if (detect_point_file(path) != PointFileFormat::kE57) {
+    read_point_file(path, o, sink, s, progress);
+  } else {
+    read_e57(path, o, sink, s, progress);
+  }
+  if (stats) {
+    stats->scans = s.scans;
+    stats->points_read = s.points_read;
+    stats->colour = s.colour;
+  }
+}
+
+render::PointCloud load_scan_cloud(const std::filesystem::path& path, const ScanCloudOptions& o,
+                                   ScanCloudStats* stats, const Progress& progress) {
   o.check();
   Stopwatch watch;
   ScanCloudStats s;
-  render::PointCloud all;
-  if (detect_point_file(path) != PointFileFormat::kE57) {
-    read_point_file(path, o, all, s, progress);
-  } else {
-    read_e57(path, o, all, s, progress);
+  render::PointCloud out;
+  std::uint64_t valid = 0;
+  if (o.voxel_size > 0.0) {
+    out = read_voxel_grid(path, o, s, valid, progress);
+  } else {  // every point kept: the cloud is the file
+    render::PointCloud all;
+    read_scan_pieces(
+        path, o,
+        [&](const ScanPiece& piece) {
+          valid += piece.points.size();
+          all.points.insert(all.points.end(), piece.points.begin(), piece.points.end());
+          all.colours.insert(all.colours.end(), piece.colours.begin(), piece.colours.end());
+          all.splat_sizes.insert(all.splat_sizes.end(), piece.spacings.begin(),
+                                 piece.spacings.end());
+        },
+        &s, progress);
+    if (valid > 0) out = voxel_downsample(all, o);
   }
   if (s.scans == 0)
     throw Error("no scan with cartesian coordinates", {.file = path.string(), .field = "data3D"});
-  if (all.points.empty())
+  if (valid == 0)
     throw Error("the scan holds no valid point", {.file = path.string(), .field = "data3D"});
-  render::PointCloud out = voxel_downsample(all, o);
   s.points_stray = remove_stray_points(out, o.stray);
   s.points_kept = out.points.size();
   s.ms = watch.elapsed_ms();
