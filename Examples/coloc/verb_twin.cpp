@@ -31,7 +31,7 @@ struct TwinArgs {
   bool motion_blur = false;
   double depth_noise = 1.0;  // scales the D455 disparity noise (0: exact depth)
   bool json = false;
-  int dictionary = 0;
+  int dictionary = -1;  // -1: the preset's (site: DICT_4X4_100, else DICT_4X4_50)
   double marker_size = 0.1675;
 };
 
@@ -46,7 +46,7 @@ void run_generate(const TwinArgs& a) {
   o.depth.disparity_sigma *= a.depth_noise;
   o.write_scan = !a.no_scan;
   o.quiet = a.json;
-  o.dictionary = a.dictionary;
+  if (a.dictionary >= 0) o.dictionary = a.dictionary;
   o.marker_size = a.marker_size;
   if (a.face_size > 0) o.scan.face_size = a.face_size;
   if (a.point_step > 0) o.scan.point_step = a.point_step;
@@ -104,6 +104,7 @@ void run_bench(const BenchArgs& a) {
   const twin::GenerateOptions o = twin::preset_options(twin::parse_preset(a.preset));
   twin::SceneOptions so;
   so.preset = o.preset;
+  so.dictionary = o.dictionary;
   const twin::TwinScene scene = twin::build_scene(so, 1);
   render::Renderer renderer;
   renderer.set_mesh(scene.mesh);
@@ -150,12 +151,13 @@ void run_bench(const BenchArgs& a) {
   std::snprintf(label, sizeof(label), "cube face %dx%d", a.face_size, a.face_size);
   print_stats(label, faces);
 
-  const twin::ScanStation st = twin::scan_station(renderer, 0, world_from_station, scan, 1);
+  twin::ScanCollector station;
+  twin::scan_station(renderer, 0, world_from_station, scan, 1, station);
   render::PointCloud pc;
   pc.splat_size = 0.02f;
-  for (std::size_t i = 0; i < st.points.size(); ++i) {
-    pc.points.push_back((world_from_station * st.points[i]).cast<float>());
-    pc.colours.push_back(st.colours[i]);
+  for (std::size_t i = 0; i < station.points.size(); ++i) {
+    pc.points.push_back((world_from_station * station.points.xyz[i]).cast<float>());
+    pc.colours.push_back(station.points.rgb[i]);
   }
   renderer.set_point_cloud(pc);
   for (int i = 0; i < a.frames; ++i) {
@@ -177,8 +179,11 @@ void add_twin_verb(CLI::App& app, CLI::App& bench) {
   auto args = std::make_shared<TwinArgs>();
   CLI::App* gen = twin_cmd->add_subcommand(
       "generate", "Write scene, RGB-D sequence (TUM), IMU, headset poses and laser scan (E57)");
-  gen->add_option("--preset", args->preset, "Scene size")
-      ->check(CLI::IsMember({"room", "floor", "building"}))
+  gen->add_option("--preset", args->preset,
+                  "Scene size: room, floor, building, or site (the paper's scale: 11 rooms, "
+                  "545 m2, a 10-minute walk, 21 stations, 206 M scan points; the test walks "
+                  "--walk 1|2 --no-scan --seconds 180 keep them to 5,400 frames)")
+      ->check(CLI::IsMember({"room", "floor", "building", "site"}))
       ->capture_default_str();
   gen->add_option("--seed", args->seed, "Random seed (same seed, same files)")
       ->capture_default_str();
@@ -188,13 +193,17 @@ void add_twin_verb(CLI::App& app, CLI::App& bench) {
                   "preset's path, other head motion (scene and scan unchanged)")
       ->check(CLI::Range(0, 2));
   gen->add_option("--seconds", args->seconds, "Limit the sequence to this many seconds (0 = all)");
-  gen->add_option("--face-size", args->face_size, "Scan cube-face size in pixels (default 2048)");
-  gen->add_option("--point-step", args->point_step, "One scan point every N face pixels");
+  gen->add_option("--face-size", args->face_size,
+                  "Scan cube-face size in pixels (default 2048; site 2560)");
+  gen->add_option("--point-step", args->point_step,
+                  "One scan point every N face pixels (default 8; site 2). Points = stations x 6 "
+                  "x (face-size / point-step)^2: the site with --face-size 2880 --point-step 1 "
+                  "is 1.05 billion (files stream, memory stays the same)");
   gen->add_option("--supersample", args->supersample, "Odd colour supersampling factor")
       ->capture_default_str();
   gen->add_option("--dictionary", args->dictionary,
-                  "ArUco dictionary: OpenCV predefined id (0 = DICT_4X4_50, 10 = DICT_6X6_250)")
-      ->capture_default_str();
+                  "ArUco dictionary: OpenCV predefined id (0 = DICT_4X4_50, 1 = DICT_4X4_100, "
+                  "10 = DICT_6X6_250; default: the preset's, site 1, others 0)");
   gen->add_option("--marker-size", args->marker_size, "Marker black-square edge (m)")
       ->capture_default_str();
   gen->add_option("--moved-furniture", args->moved_furniture,
@@ -217,7 +226,7 @@ void add_twin_verb(CLI::App& app, CLI::App& bench) {
   cmd->add_option("--face-size", b->face_size, "Cube-face size")->capture_default_str();
   cmd->add_option("--faces", b->faces, "Cube faces to render")->capture_default_str();
   cmd->add_option("--preset", b->preset, "Scene")
-      ->check(CLI::IsMember({"room", "floor", "building"}))
+      ->check(CLI::IsMember({"room", "floor", "building", "site"}))
       ->capture_default_str();
   cmd->callback([b] { run_bench(*b); });
 }

@@ -3,51 +3,16 @@
 #include <algorithm>
 #include <cmath>
 
+#include "registration/twin/plan_builder.hpp"
 #include "slam/core/error.hpp"
 
 namespace coloc::registration::twin {
 namespace {
 
-using Vec2 = Eigen::Vector2d;
-constexpr double kDoorHeight = 2.1;
-constexpr double kStationHeight = 1.5;
-
-struct Rect {
-  Vec2 min, max;
-};
-
-class PlanBuilder {
- public:
-  PlanBuilder(FloorPlan& plan, double width, double depth) : plan_(plan) {
-    plan_.nx = static_cast<int>(std::lround(width / plan_.cell));
-    plan_.ny = static_cast<int>(std::lround(depth / plan_.cell));
-    plan_.label.assign(static_cast<std::size_t>(plan_.nx) * plan_.ny, -1);
-    plan_.ceiling.assign(plan_.label.size(), 0.0f);
-  }
-
-  int add_room(const std::string& name, Rect r) {
-    const int id = static_cast<int>(plan_.rooms.size());
-    plan_.rooms.push_back({name, r.min, r.max, 0, 0});
-    carve(r, id, plan_.room_height);
-    return id;
-  }
-  void carve(Rect r, int label, double height) {
-    for (int j = 0; j < plan_.ny; ++j) {
-      for (int i = 0; i < plan_.nx; ++i) {
-        const Vec2 c((i + 0.5) * plan_.cell, (j + 0.5) * plan_.cell);
-        if ((c.array() > r.min.array()).all() && (c.array() < r.max.array()).all()) {
-          const auto k = static_cast<std::size_t>(plan_.index(i, j));
-          plan_.label[k] = label;
-          plan_.ceiling[k] = label >= 0 ? static_cast<float>(height) : 0.0f;
-        }
-      }
-    }
-  }
-  void door(Rect r, int label) { carve(r, label, kDoorHeight); }
-
- private:
-  FloorPlan& plan_;
-};
+using plan::add_stations;
+using plan::PlanBuilder;
+using plan::Rect;
+using plan::Vec2;
 
 std::vector<Vec2> ellipse(const Vec2& c, double rx, double ry, int n, double start) {
   std::vector<Vec2> out;
@@ -56,11 +21,6 @@ std::vector<Vec2> ellipse(const Vec2& c, double rx, double ry, int n, double sta
     out.emplace_back(c.x() + rx * std::cos(a), c.y() + ry * std::sin(a));
   }
   return out;
-}
-
-void add_stations(FloorPlan& plan, const std::vector<Vec2>& xy) {
-  for (const Vec2& p : xy)
-    plan.stations.emplace_back(p.x(), p.y(), kStationHeight);
 }
 
 void room_preset(FloorPlan& plan) {
@@ -214,6 +174,62 @@ void place_markers(FloorPlan& plan, int count, std::mt19937_64& rng) {
   }
 }
 
+// The site's rule, as a surveyor places them: each room's markers on walls of different
+// directions first (a rectangle has four) and a room's markers at least `spread` apart, so a
+// corridor's markers are strung along it rather than bunched at one end. The markers are dealt
+// round-robin over the rooms, so every room gets its share before any gets more.
+void place_markers_surveyed(FloorPlan& plan, int count, std::mt19937_64& rng) {
+  std::vector<WallSpot> spots = straight_wall_spots(plan, 3);
+  std::shuffle(spots.begin(), spots.end(), rng);
+  std::uniform_real_distribution<double> height(1.1, 1.7);
+  const int rooms = static_cast<int>(plan.rooms.size());
+  const double per_room = std::ceil(static_cast<double>(count) / rooms);
+  std::vector<std::vector<std::size_t>> candidates(static_cast<std::size_t>(rooms));
+  for (std::size_t k = 0; k < spots.size(); ++k)
+    candidates[static_cast<std::size_t>(spots[k].room)].push_back(k);
+  std::vector<int> marker_room;
+  const auto centre = [&](const WallSpot& s) {
+    return Vec2((s.i + 0.5 + 0.5 * s.di) * plan.cell, (s.j + 0.5 + 0.5 * s.dj) * plan.cell);
+  };
+  for (int round = 0; static_cast<int>(plan.markers.size()) < count && round < count * 4; ++round) {
+    const int room = round % rooms;
+    const Room& r = plan.rooms[static_cast<std::size_t>(room)];
+    const double spread = std::max(1.5, 0.7 * (r.max - r.min).maxCoeff() / per_room);
+    auto& cand = candidates[static_cast<std::size_t>(room)];
+    std::ptrdiff_t pick = -1;
+    std::ptrdiff_t fallback = -1;
+    for (std::size_t at = 0; at < cand.size() && pick < 0;) {
+      const WallSpot& s = spots[cand[at]];
+      const Vec2 c = centre(s);
+      bool crowded = near_door(plan, c, 0.8);
+      bool used_wall = false;
+      for (std::size_t m = 0; m < plan.markers.size() && !crowded; ++m) {
+        const double d = (plan.markers[m].centre.head<2>() - c).norm();
+        const bool same_room = marker_room[m] == room;
+        crowded = d < 1.5 || (same_room && d < spread);
+        used_wall = used_wall || (same_room && plan.markers[m].normal.x() == -s.di &&
+                                  plan.markers[m].normal.y() == -s.dj);
+      }
+      if (crowded) {  // markers are only ever added: a crowded spot stays crowded
+        cand.erase(cand.begin() + static_cast<std::ptrdiff_t>(at));
+        continue;
+      }
+      if (!used_wall) pick = static_cast<std::ptrdiff_t>(at);
+      if (fallback < 0) fallback = static_cast<std::ptrdiff_t>(at);
+      ++at;
+    }
+    if (pick < 0) pick = fallback;
+    if (pick < 0) continue;  // this room is full
+    const WallSpot& s = spots[cand[static_cast<std::size_t>(pick)]];
+    const Vec2 c = centre(s);
+    const Eigen::Vector3d normal(-s.di, -s.dj, 0.0);
+    plan.markers.push_back({static_cast<int>(plan.markers.size()),
+                            Eigen::Vector3d(c.x(), c.y(), height(rng)) + 0.002 * normal, normal});
+    marker_room.push_back(room);
+    cand.erase(cand.begin() + pick);
+  }
+}
+
 void place_furniture(FloorPlan& plan, const FloorPlanOptions& o, std::mt19937_64& rng) {
   struct Kind {
     double length, depth, height;
@@ -267,7 +283,8 @@ Preset parse_preset(const std::string& name) {
   if (name == "room") return Preset::kRoom;
   if (name == "floor") return Preset::kFloor;
   if (name == "building") return Preset::kBuilding;
-  throw Error("unknown preset '" + name + "' (room, floor or building)", {.field = "preset"});
+  if (name == "site") return Preset::kSite;
+  throw Error("unknown preset '" + name + "' (room, floor, building or site)", {.field = "preset"});
 }
 
 std::string preset_name(Preset preset) {
@@ -278,6 +295,8 @@ std::string preset_name(Preset preset) {
       return "floor";
     case Preset::kBuilding:
       return "building";
+    case Preset::kSite:
+      return "site";
   }
   return "room";
 }
@@ -302,13 +321,22 @@ FloorPlan make_floor_plan(const FloorPlanOptions& options, std::mt19937_64& rng)
       building_preset(plan);
       markers = 24;
       break;
+    case Preset::kSite:
+      plan::site_preset(plan);
+      markers = 4 * static_cast<int>(plan.rooms.size());  // one per wall of each room
+      break;
   }
   for (std::size_t r = 0; r < plan.rooms.size(); ++r) {
     plan.rooms[r].wall_texture = static_cast<int>(r) % options.wall_textures;
     plan.rooms[r].floor_texture =
         options.wall_textures + static_cast<int>(r) % options.floor_textures;
   }
-  place_markers(plan, std::min(markers, options.marker_dictionary_size), rng);
+  markers = std::min(markers, options.marker_dictionary_size);
+  if (options.preset == Preset::kSite) {
+    place_markers_surveyed(plan, markers, rng);
+  } else {
+    place_markers(plan, markers, rng);  // kept as it was: the older presets' files stay the same
+  }
   place_furniture(plan, options, rng);
   return plan;
 }

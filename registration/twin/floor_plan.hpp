@@ -12,8 +12,11 @@
 
 namespace coloc::registration::twin {
 
-enum class Preset { kRoom, kFloor, kBuilding };
-Preset parse_preset(const std::string& name);  // "room" | "floor" | "building"; throws
+// room: one room (tests, demo); floor: a corridor and 5 rooms; building: a ring corridor around
+// 4 rooms; site: the paper's scale, one storey of 11 rooms, a lobby and a corridor loop
+// (floor_plan_site.cpp; one floor: the renderer and the walk have no stairs).
+enum class Preset { kRoom, kFloor, kBuilding, kSite };
+Preset parse_preset(const std::string& name);  // "room" | "floor" | "building" | "site"; throws
 std::string preset_name(Preset preset);
 
 struct Room {

@@ -117,6 +117,8 @@ void write_headset(const WalkTrajectory& walk, const GenerateOptions& o, double 
                                 h.world_from_xr.front().world_from_cam);
 }
 
+// Stations are streamed face by face into the files (ScanSink): memory stays the same whatever
+// the point count; only the stations' poses are kept.
 std::vector<ScanStation> write_scan(render::Renderer& renderer, const TwinScene& scene,
                                     const GenerateOptions& o, const fs::path& dir,
                                     std::size_t& points) {
@@ -128,14 +130,8 @@ std::vector<ScanStation> write_scan(render::Renderer& renderer, const TwinScene&
   Progress progress("twin: scan stations", scene.plan.stations.size(), o.quiet);
   for (std::size_t k = 0; k < scene.plan.stations.size(); ++k) {
     const SE3 world_from_station(SO3::exp(Eigen::Vector3d(0, 0, yaw(rng))), scene.plan.stations[k]);
-    ScanStation st = scan_station(renderer, static_cast<int>(k), world_from_station, o.scan,
-                                  o.seed * 104729u + k);
-    files.add(st);
-    // Keep poses only: images and points are in the files.
-    st.points = {};
-    st.colours = {};
-    st.faces = {};
-    stations.push_back(std::move(st));
+    stations.push_back(scan_station(renderer, static_cast<int>(k), world_from_station, o.scan,
+                                    o.seed * 104729u + k, files));
     progress.advance();
   }
   progress.finish();
@@ -207,6 +203,18 @@ GenerateOptions preset_options(Preset preset) {
     case Preset::kBuilding:
       o.walk.speed = 1.0;
       o.walk.look_amplitude = 0.5;
+      break;
+    case Preset::kSite:
+      // A surveyor's pace: the ~400 m walk lasts over 10 minutes (18,000+ frames at 30 Hz).
+      o.walk.speed = 0.6;
+      o.walk.look_amplitude = 0.5;
+      // 21 stations x 6 faces x (2560 / 2)^2 = 206 million points (every pixel hits a wall
+      // indoors); --face-size 4096 --point-step 2 gives 528 million, --point-step 1 with
+      // --face-size 2880 gives 1.05 billion.
+      o.scan.face_size = 2560;
+      o.scan.point_step = 2;
+      // One marker per wall of each of the 15 rooms and corridors: 60 > DICT_4X4_50's ids.
+      o.dictionary = 1;  // DICT_4X4_100
       break;
   }
   return o;

@@ -60,7 +60,8 @@ struct GenerateOptions {
   void check() const;  // throws coloc::Error naming the bad field
 };
 
-// Defaults per preset: room = small and slow (tests, demo), building = >= 40 m loop.
+// Defaults per preset: room = small and slow (tests, demo), building = >= 40 m loop, site = the
+// paper's scale (a 10-minute walk, a 200-million-point scan, DICT_4X4_100 markers).
 GenerateOptions preset_options(Preset preset);
 
 struct GenerateSummary {

@@ -21,22 +21,28 @@ void ScanOptions::check() const {
 }
 
 ScanStation scan_station(render::Renderer& renderer, int index, const SE3& world_from_station,
-                         const ScanOptions& options, std::uint64_t seed) {
+                         const ScanOptions& options, std::uint64_t seed, ScanSink& sink) {
   options.check();
   ScanStation st;
   st.index = index;
   st.world_from_station = world_from_station;
   st.face_camera = cube_face_camera(options.face_size);
+  const auto rotations = cube_face_rotations();
+  for (std::size_t f = 0; f < 6; ++f)
+    st.world_from_face[f] = world_from_station * SE3(rotations[f], Eigen::Vector3d::Zero());
+  sink.begin_station(st);
+  // One generator over the whole station in a fixed order: the points do not depend on how
+  // they are batched.
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> noise(0.0, options.range_noise);
   const SE3 station_from_world = world_from_station.inverse();
-  const auto rotations = cube_face_rotations();
   const int step = options.point_step;
+  ScanPoints batch;
+  batch.xyz.reserve(kScanBatch);
+  batch.rgb.reserve(kScanBatch);
   for (std::size_t f = 0; f < 6; ++f) {
-    st.world_from_face[f] = world_from_station * SE3(rotations[f], Eigen::Vector3d::Zero());
     const render::RenderResult r =
         renderer.render(st.face_camera, st.world_from_face[f].inverse(), render::Layer::kMesh);
-    st.faces[f] = r.colour;
     for (int v = step / 2; v < options.face_size; v += step) {
       for (int u = step / 2; u < options.face_size; u += step) {
         const cv::Vec3f p = r.points.at<cv::Vec3f>(v, u);
@@ -46,11 +52,19 @@ ScanStation scan_station(render::Renderer& renderer, int index, const SE3& world
         if (range > options.max_range || range < 1e-3) continue;
         ps *= (range + noise(rng)) / range;
         const cv::Vec3b c = r.colour.at<cv::Vec3b>(v, u);
-        st.points.push_back(ps);
-        st.colours.push_back({c[0], c[1], c[2]});
+        batch.xyz.push_back(ps);
+        batch.rgb.push_back({c[0], c[1], c[2]});
+        if (batch.size() == kScanBatch) {
+          sink.add_points(batch);
+          batch.clear();
+        }
       }
     }
+    if (batch.size() > 0) sink.add_points(batch);
+    batch.clear();
+    sink.add_face(f, r.colour);
   }
+  sink.end_station();
   return st;
 }
 
