@@ -20,6 +20,7 @@ namespace fs = std::filesystem;
 
 struct SiteBenchArgs {
   fs::path dir;
+  std::string preset = "site";  // another preset tries the bench in minutes
   int seed = 1;
   double survey_seconds = 0.0;  // 0: the whole survey walk
   double walk_seconds = 180.0;  // test walk 1: 5,400 frames at 30 Hz
@@ -70,7 +71,7 @@ std::vector<Stage> run_site(const SiteBenchArgs& a) {
   const std::string seed = std::to_string(a.seed), vocabulary = shipped_vocabulary().string();
   std::vector<Stage> stages;
 
-  std::vector<std::string> gen = {"twin",   "generate", "--preset", "site",
+  std::vector<std::string> gen = {"twin",   "generate", "--preset", a.preset,
                                   "--seed", seed,       "--out",    site.string()};
   if (a.survey_seconds > 0) gen.insert(gen.end(), {"--seconds", std::to_string(a.survey_seconds)});
   if (a.face_size > 0) gen.insert(gen.end(), {"--face-size", std::to_string(a.face_size)});
@@ -78,8 +79,8 @@ std::vector<Stage> run_site(const SiteBenchArgs& a) {
   stages.push_back(generate("twin: survey + scan", site, gen));
   stages.push_back(
       generate("twin: test walk 1", walk,
-               {"twin", "generate", "--preset", "site", "--seed", seed, "--walk", "1", "--no-scan",
-                "--seconds", std::to_string(a.walk_seconds), "--out", walk.string()}));
+               {"twin", "generate", "--preset", a.preset, "--seed", seed, "--walk", "1",
+                "--no-scan", "--seconds", std::to_string(a.walk_seconds), "--out", walk.string()}));
   const std::string e57 = (site / "scan" / "scan.e57").string();
   const std::string dictionary =
       std::to_string(static_cast<int>(stages.front().figures.value("marker_dictionary", 0.0)));
@@ -117,18 +118,26 @@ std::vector<Stage> run_site(const SiteBenchArgs& a) {
   stages.push_back(std::move(map));
 
   const fs::path markers_db = a.dir / "site_map_markers.db", cloud_db = a.dir / "site_map_cloud.db";
-  stages.push_back(
-      {"register --level markers",
-       measure_verb({"register", "--map", map_db.string(), "--markers", markers.string(), "--out",
-                     markers_db.string(), "--level", "markers"},
-                    true, &j),
-       Json::object()});
-  stages.push_back(
-      {"register --level pointcloud",
-       measure_verb({"register", "--map", map_db.string(), "--markers", markers.string(), "--out",
-                     cloud_db.string(), "--level", "pointcloud", "--scan", e57},
-                    true, &j),
-       Json::object()});
+  Stage by_markers{
+      "register --level markers",
+      measure_verb({"register", "--map", map_db.string(), "--markers", markers.string(), "--out",
+                    markers_db.string(), "--level", "markers"},
+                   true, &j),
+      Json::object()};
+  const Json rms = j.value("markers", Json()).value("marker_rms_px", Json());
+  by_markers.figures = {{"markers_used", number(j.value("rough", Json()), "inliers")},
+                        {"marker_rms_px", rms.is_array() && rms.size() == 2 ? rms[1] : Json()}};
+  stages.push_back(std::move(by_markers));
+  Stage by_cloud{"register --level pointcloud",
+                 measure_verb({"register", "--map", map_db.string(), "--markers", markers.string(),
+                               "--out", cloud_db.string(), "--level", "pointcloud", "--scan", e57},
+                              true, &j),
+                 Json::object()};
+  const Json refined = j.value("pointcloud", Json());
+  by_cloud.figures = {{"keyframes", number(refined, "keyframes")},
+                      {"accepted", number(refined, "accepted")},
+                      {"median_correction_mm", 1e3 * number(refined, "median_correction_m")}};
+  stages.push_back(std::move(by_cloud));
 
   const std::string walk_sequence = (walk / "sequence").string();
   Stage localize{"localize test walk 1",
@@ -216,6 +225,8 @@ void add_bench_site_verb(CLI::App& bench) {
       "The whole chain on a generated site (twin preset 'site'): time, CPU, memory, "
       "accuracy per stage");
   b->add_option("DIR", args->dir, "Working folder (generated data in it is reused)")->required();
+  b->add_option("--preset", args->preset, "Twin preset (room, floor, building: a quick try)")
+      ->capture_default_str();
   b->add_option("--seed", args->seed, "Twin seed")->capture_default_str();
   b->add_option("--survey-seconds", args->survey_seconds,
                 "Cut the survey walk to this many seconds (0: the whole walk)")
