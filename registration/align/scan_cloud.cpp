@@ -117,6 +117,11 @@ Eigen::Isometry3d world_from_scan_of(const e57::Data3D& d) {
   return t;
 }
 
+// A full-sphere scan's angular step (radians) from its point count (scan_cloud.hpp).
+double angular_step(const e57::Data3D& d) {
+  return std::sqrt(4.0 * std::numbers::pi / std::max(static_cast<double>(d.point_count), 1.0));
+}
+
 using Progress = std::function<void(std::uint64_t, std::uint64_t)>;
 using Sink = std::function<void(const ScanPiece&)>;
 
@@ -135,8 +140,7 @@ void read_scan(const e57::Reader& reader, std::size_t si, const ScanCloudOptions
   const Eigen::Isometry3d world_from_scan = world_from_scan_of(d);
   const e57::ColorLimits cl = d.color_limits.value_or(e57::ColorLimits{0, 255, 0, 255, 0, 255});
   const e57::IntensityLimits il = d.intensity_limits.value_or(e57::IntensityLimits{0, 1});
-  const double step =
-      std::sqrt(4.0 * std::numbers::pi / std::max(static_cast<double>(d.point_count), 1.0));
+  const double step = angular_step(d);
   e57::PointStream stream = reader.open_points(si, mask);
   e57::PointBuffer b;
   ScanPiece piece;
@@ -167,9 +171,11 @@ void read_scan(const e57::Reader& reader, std::size_t si, const ScanCloudOptions
   }
 }
 
-// Every scan of an E57 file with cartesian coordinates, in the file's frame.
+// Every scan of an E57 file with cartesian coordinates, in the file's frame; only those `want`
+// accepts when it is given.
 void read_e57(const std::filesystem::path& path, const ScanCloudOptions& o, const Sink& sink,
-              ScanCloudStats& s, const Progress& progress) {
+              ScanCloudStats& s, const Progress& progress,
+              const std::function<bool(const e57::Data3D&)>& want = {}) {
   try {
     const e57::Reader reader(path);
     std::uint64_t total = 0;
@@ -177,6 +183,7 @@ void read_e57(const std::filesystem::path& path, const ScanCloudOptions& o, cons
       total += d.point_count;
     for (std::size_t si = 0; si < reader.scans().size(); ++si) {
       if ((reader.scans()[si].field_mask & kXyz) != kXyz) continue;
+      if (want && !want(reader.scans()[si])) continue;
       ++s.scans;
       read_scan(reader, si, o, sink, s, total, progress);
     }
@@ -236,8 +243,24 @@ render::PointCloud read_voxel_grid(const std::filesystem::path& path, const Scan
   if (grid.ambiguous() > 0) {
     spdlog::info("scan: reading again for {} of {} voxels (finest stations)", grid.ambiguous(),
                  grid.voxels());
+    // A station whose nearest possible point in every such voxel is coarser than 1.5x the
+    // voxel's finest spacing adds nothing there: it is not read again. The margin covers the
+    // float rounding of the points' file-frame coordinates.
+    const std::vector<VoxelGrid::Voxel> voxels = grid.ambiguous_voxels();
+    const auto reaches = [&](const e57::Data3D& d) {
+      const Eigen::Vector3d station = world_from_scan_of(d).translation();
+      const double step = angular_step(d);
+      return std::any_of(voxels.begin(), voxels.end(), [&](const VoxelGrid::Voxel& v) {
+        const Eigen::Vector3d gap = (v.lo - station).cwiseMax(station - v.hi).cwiseMax(0.0);
+        const double nearest = std::max((gap.norm() - 1e-3) * step, 1e-4);
+        return nearest <= 1.5 * v.finest * (1.0 + 1e-5);
+      });
+    };
     grid.begin_second_pass();
-    read_scan_pieces(path, o, [&](const ScanPiece& piece) { add_piece(grid, piece); });
+    ScanCloudStats again;
+    read_e57(
+        path, o, [&](const ScanPiece& piece) { add_piece(grid, piece); }, again, {}, reaches);
+    spdlog::debug("scan: {} of {} stations read again", again.scans, s.scans);
   }
   render::PointCloud out = grid.take_means();
   out.max_splat_pixels = o.max_splat_pixels;

@@ -169,6 +169,18 @@ void VoxelGrid::add(const Eigen::Vector3f& p, const std::array<std::uint8_t, 3>&
   }
 }
 
+std::vector<VoxelGrid::Voxel> VoxelGrid::ambiguous_voxels() const {
+  std::vector<Voxel> out;
+  for (const Table& t : tables_) {
+    for (const Cell& c : t.cells) {
+      if (c.key == kEmpty || !(c.count & kAmbiguous)) continue;
+      const Eigen::Vector3d lo = corner(c.key);
+      out.push_back({lo, lo + Eigen::Vector3d::Constant(size_), static_cast<double>(c.finest)});
+    }
+  }
+  return out;
+}
+
 void VoxelGrid::begin_second_pass() {
   second_pass_ = true;
   for (Table& t : tables_) {

@@ -57,6 +57,14 @@ class VoxelGrid {
   std::uint64_t ambiguous() const { return ambiguous_; }
   std::size_t bytes() const;  // memory the tables hold
 
+  // The ambiguous voxels: their box (file frame, metres) and finest spacing; the second
+  // reading may skip the stations that cannot reach within 1.5x of it.
+  struct Voxel {
+    Eigen::Vector3d lo, hi;
+    double finest;
+  };
+  std::vector<Voxel> ambiguous_voxels() const;
+
   // Restarts the sums of the ambiguous voxels; add() then updates those alone, with the points
   // within 1.5x of their final finest spacing. Feed the same points again.
   void begin_second_pass();
