@@ -181,7 +181,7 @@ void add_twin_verb(CLI::App& app, CLI::App& bench) {
       "generate", "Write scene, RGB-D sequence (TUM), IMU, headset poses and laser scan (E57)");
   gen->add_option("--preset", args->preset,
                   "Scene size: room, floor, building, or site (the paper's scale: 11 rooms, "
-                  "545 m2, a 10-minute walk, 21 stations, 206 M scan points; the test walks "
+                  "551 m2, a 10-minute walk, 21 stations, 206 M scan points; the test walks "
                   "--walk 1|2 --no-scan --seconds 180 keep them to 5,400 frames)")
       ->check(CLI::IsMember({"room", "floor", "building", "site"}))
       ->capture_default_str();
