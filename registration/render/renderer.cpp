@@ -5,6 +5,7 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
+#include "registration/render/cloud_cells.hpp"
 #include "registration/render/distortion_warp.hpp"
 #include "registration/render/gl_context.hpp"
 #include "slam/core/error.hpp"
@@ -111,7 +112,8 @@ struct PointBuffers {
   GLsizei count = 0;
   float splat_size = 0.0f;
   float max_pixels = 0.0f;
-  std::vector<Eigen::Vector3f> points;  // kept for the exact per-pixel 3-D points
+  std::vector<Eigen::Vector3f> points;  // upload order: the exact per-pixel 3-D points
+  CloudCells cells;  // upload order; no cells: uploaded in cloud order, drawn whole
 };
 
 struct Framebuffer {
@@ -134,6 +136,7 @@ void RenderOptions::check() const {
   if (anisotropy < 1 || anisotropy > 16) {
     throw Error("anisotropy must be in 1..16", {.field = "anisotropy"});
   }
+  if (!(cull_cell >= 0.0)) throw Error("cull_cell must be >= 0", {.field = "cull_cell"});
 }
 
 struct Renderer::Impl {
@@ -263,16 +266,24 @@ struct Renderer::Impl {
       std::uint8_t r, g, b, pad;
       float size;
     };
+    if (options.cull_cell > 0.0)
+      cloud.cells = group_into_cells(c, static_cast<float>(options.cull_cell));
+    const auto index_of = [&](std::size_t pos) {
+      return cloud.cells.order.empty() ? pos : cloud.cells.order[pos];
+    };
     std::vector<Vertex> vertices(c.points.size());
-    for (std::size_t i = 0; i < c.points.size(); ++i) {
-      vertices[i] = {c.points[i].x(),
-                     c.points[i].y(),
-                     c.points[i].z(),
-                     c.colours[i][0],
-                     c.colours[i][1],
-                     c.colours[i][2],
-                     0,
-                     c.splat_sizes.empty() ? c.splat_size : c.splat_sizes[i]};
+    cloud.points.resize(c.points.size());
+    for (std::size_t pos = 0; pos < c.points.size(); ++pos) {
+      const std::size_t i = index_of(pos);
+      cloud.points[pos] = c.points[i];
+      vertices[pos] = {c.points[i].x(),
+                       c.points[i].y(),
+                       c.points[i].z(),
+                       c.colours[i][0],
+                       c.colours[i][1],
+                       c.colours[i][2],
+                       0,
+                       c.splat_sizes.empty() ? c.splat_size : c.splat_sizes[i]};
     }
     glGenVertexArrays(1, &cloud.vao);
     glBindVertexArray(cloud.vao);
@@ -292,7 +303,6 @@ struct Renderer::Impl {
     cloud.count = static_cast<GLsizei>(c.points.size());
     cloud.splat_size = c.splat_size;
     cloud.max_pixels = c.max_splat_pixels;
-    cloud.points = c.points;
     detail::check_gl("point cloud upload");
   }
 
@@ -367,7 +377,14 @@ struct Renderer::Impl {
                   static_cast<float>(std::max(ideal.fx, ideal.fy)));
       glUniform1f(glGetUniformLocation(point_program, "u_max_pixels"), cloud.max_pixels);
       glBindVertexArray(cloud.vao);
-      glDrawArrays(GL_POINTS, 0, cloud.count);
+      if (cloud.cells.cells.empty()) {
+        glDrawArrays(GL_POINTS, 0, cloud.count);
+      } else {
+        for (const auto& [first, count] :
+             visible_ranges(cloud.cells, ideal, cam_from_world, options.near_plane,
+                            options.far_plane, 0.5 * cloud.max_pixels + 1.0))
+          glDrawArrays(GL_POINTS, static_cast<GLint>(first), static_cast<GLsizei>(count));
+      }
     }
     glBindVertexArray(0);
     glFinish();
@@ -409,8 +426,11 @@ struct Renderer::Impl {
       const int sv = v * s + s / 2;
       for (int u = 0; u < ow; ++u) {
         const int su = u * s + s / 2;
-        const int id = index.at<int>(sv, su);
-        r.index.at<int>(v, u) = id;
+        const int id = index.at<int>(sv, su);  // upload position
+        r.index.at<int>(v, u) =
+            id >= 0 && !cloud.cells.order.empty()
+                ? static_cast<int>(cloud.cells.order[static_cast<std::size_t>(id)])
+                : id;
         auto& out = r.points.at<cv::Vec3f>(v, u);
         const cv::Vec4f& pc = pcam.at<cv::Vec4f>(sv, su);
         if (pc[3] <= 0.0f) {

@@ -31,6 +31,9 @@ struct RenderOptions {
   int supersample = 1;
   std::array<std::uint8_t, 3> background{0, 0, 0};  // RGB where nothing is hit
   int anisotropy = 1;  // texture anisotropic filtering (1 = off; 4 costs ~50 % more time)
+  // Point clouds are drawn by cells of this side (metres) that the view can reach
+  // (cloud_cells.hpp); 0 draws every point each time. The image is the same either way.
+  double cull_cell = 1.0;
 
   void check() const;  // throws coloc::Error naming the bad field
 };
