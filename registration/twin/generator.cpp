@@ -290,7 +290,8 @@ GenerateSummary generate_twin(const GenerateOptions& o, const fs::path& out) {
   s.imu_samples = imu.size();
   io::write_imu(seq / "imu.txt", imu);
   io::write_imu_truth(seq / "imu_groundtruth.txt", imu_truth);
-  io::write_camera_settings(seq / "camera.yaml", o.camera, o.fps, o.depth, o.imu);
+  io::write_camera_settings(seq / "camera.yaml", o.camera, o.fps, o.depth, o.imu, o.dictionary,
+                            o.marker_size);
   write_headset(walk, o, end, out / "headset");
   s.headset_poses =
       static_cast<std::size_t>(std::floor((end - walk.start_time()) * o.headset.rate + 1e-9)) + 1;

@@ -36,7 +36,8 @@ std::string tum_line(double t, const SE3& pose) {
 }
 
 void write_camera_settings(const std::filesystem::path& path, const PinholeCamera& c, double fps,
-                           const DepthNoiseOptions& depth, const ImuOptions& imu) {
+                           const DepthNoiseOptions& depth, const ImuOptions& imu, int marker_dictionary,
+                           double marker_size) {
   AtomicOutput out(path);
   out.precision(10);
   out << "%YAML:1.0\n\n# coloc digital twin: RGB-D camera (D455-like), ORB-SLAM3 v1.0 format.\n"
@@ -64,7 +65,9 @@ void write_camera_settings(const std::filesystem::path& path, const PinholeCamer
       << "IMU.AccWalk: " << fmt("%.6e", imu.accel_random_walk) << "\n"
       << "IMU.Frequency: " << fmt("%.1f", imu.rate) << "\n\n"
       << "ORBextractor.nFeatures: 1000\nORBextractor.scaleFactor: 1.2\nORBextractor.nLevels: 8\n"
-      << "ORBextractor.iniThFAST: 20\nORBextractor.minThFAST: 7\n";
+      << "ORBextractor.iniThFAST: 20\nORBextractor.minThFAST: 7\n\n"
+      << "Markers.dictionary: \"" << marker_dictionary << "\"\n"
+      << "Markers.size: " << fmt("%.4f", marker_size) << "\n";
   if (!out) throw Error("write failed", {.file = path.string()});
   out.commit();
 }

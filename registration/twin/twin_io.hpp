@@ -15,8 +15,11 @@
 namespace coloc::registration::twin::io {
 
 // An ORB-SLAM3 (v1.0 format) RGB-D(-inertial) settings file for the twin's camera.
+// ORB-SLAM3 settings of the twin's camera, with coloc's Markers.dictionary (OpenCV's numeric
+// id, as markers::make_dictionary reads it) and Markers.size, so SLAM looks for the twin's markers.
 void write_camera_settings(const std::filesystem::path& path, const PinholeCamera& camera,
-                           double fps, const DepthNoiseOptions& depth, const ImuOptions& imu);
+                           double fps, const DepthNoiseOptions& depth, const ImuOptions& imu,
+                           int marker_dictionary, double marker_size);
 void write_imu(const std::filesystem::path& path, const std::vector<ImuSample>& samples);
 void write_imu_truth(const std::filesystem::path& path, const std::vector<ImuTruth>& truth);
 void write_headset_calibration(const std::filesystem::path& path, const HeadsetOptions& options,

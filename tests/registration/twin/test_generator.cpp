@@ -107,6 +107,8 @@ TEST_F(TwinGenerator, TumLayoutIsCompleteAndReadable) {
   EXPECT_NE(settings.find("Camera1.fx:"), std::string::npos);
   EXPECT_NE(settings.find("RGBD.DepthMapFactor: 1000.0"), std::string::npos);
   EXPECT_NE(settings.find("IMU.T_b_c1"), std::string::npos);
+  // SLAM looks for the twin's markers (OpenCV's numeric id, as the twin's files write it).
+  EXPECT_NE(settings.find("Markers.dictionary: \"0\"\nMarkers.size: 0.1675"), std::string::npos);
   EXPECT_EQ(data_lines(*dir_a_ / "groundtruth" / "markers.txt").size(), s.markers);
 }
 
