@@ -5,6 +5,8 @@
 // reused (generation is a stage of its own, timed only when it runs). Prints one table;
 // --json prints it as a document.
 
+#include <spdlog/spdlog.h>
+
 #include <opencv2/core/persistence.hpp>
 #include <optional>
 
@@ -66,6 +68,38 @@ double number(const Json& j, const char* key) {
   return j.contains(key) && j[key].is_number() ? j[key].get<double>() : 0.0;
 }
 
+std::string figures_text(const Json& figures) {
+  std::string text;
+  for (const auto& [key, value] : figures.items()) {
+    if (!text.empty()) text += ", ";
+    char buf[64];
+    if (value.is_number_float())
+      std::snprintf(buf, sizeof(buf), "%.4g", value.get<double>());
+    else
+      std::snprintf(buf, sizeof(buf), "%s", value.dump().c_str());
+    text += key + " " + buf;
+  }
+  return text;
+}
+
+// One row of the table: wall s, CPU s, peak MiB, figures.
+std::string row_text(const Stage& s) {
+  char buf[128];
+  if (s.cost)
+    std::snprintf(buf, sizeof(buf), "%-28s %9.1f %9.1f %10.0f  ", s.name.c_str(), s.cost->wall_s,
+                  s.cost->cpu_s, static_cast<double>(s.cost->peak_rss_bytes) / (1024.0 * 1024.0));
+  else
+    std::snprintf(buf, sizeof(buf), "%-28s %9s %9s %10s  ", s.name.c_str(), "reused", "", "");
+  return buf + figures_text(s.figures);
+}
+
+// Keeps a finished stage and logs its row at once, so a run stopped part way (an hour at the
+// paper's size) keeps what it measured.
+void keep(std::vector<Stage>& stages, Stage stage) {
+  spdlog::info("bench site: {}", row_text(stage));
+  stages.push_back(std::move(stage));
+}
+
 std::vector<Stage> run_site(const SiteBenchArgs& a) {
   fs::create_directories(a.dir);
   const fs::path site = a.dir / "site", walk = a.dir / "site_walk1";
@@ -77,11 +111,11 @@ std::vector<Stage> run_site(const SiteBenchArgs& a) {
   if (a.survey_seconds > 0) gen.insert(gen.end(), {"--seconds", std::to_string(a.survey_seconds)});
   if (a.face_size > 0) gen.insert(gen.end(), {"--face-size", std::to_string(a.face_size)});
   if (a.point_step > 0) gen.insert(gen.end(), {"--point-step", std::to_string(a.point_step)});
-  stages.push_back(generate("twin: survey + scan", site, gen));
-  stages.push_back(
-      generate("twin: test walk 1", walk,
-               {"twin", "generate", "--preset", a.preset, "--seed", seed, "--walk", "1",
-                "--no-scan", "--seconds", std::to_string(a.walk_seconds), "--out", walk.string()}));
+  keep(stages, generate("twin: survey + scan", site, gen));
+  keep(stages, generate("twin: test walk 1", walk,
+                        {"twin", "generate", "--preset", a.preset, "--seed", seed, "--walk", "1",
+                         "--no-scan", "--seconds", std::to_string(a.walk_seconds), "--out",
+                         walk.string()}));
   const std::string e57 = (site / "scan" / "scan.e57").string();
   const std::string dictionary =
       std::to_string(static_cast<int>(stages.front().figures.value("marker_dictionary", 0.0)));
@@ -100,7 +134,7 @@ std::vector<Stage> run_site(const SiteBenchArgs& a) {
   found.figures = {{"markers", j["markers"].size()},
                    {"markers_in_scan", stages.front().figures.value("markers", 0.0)},
                    {"corner_error_mean_mm", 1e3 * number(j.value("truth", Json()), "mean_m")}};
-  stages.push_back(std::move(found));
+  keep(stages, std::move(found));
 
   const fs::path map_db = a.dir / "site_map.db";
   Stage map{"map --realtime",
@@ -120,7 +154,7 @@ std::vector<Stage> run_site(const SiteBenchArgs& a) {
       {"loops", j["loops"]},
       {"global_ba_s", 1e-3 * number(j, "global_ba_ms")},
       {"ate_mm", 1e3 * number(j, "ate_rmse_m")}};
-  stages.push_back(std::move(map));
+  keep(stages, std::move(map));
 
   const fs::path markers_db = a.dir / "site_map_markers.db", cloud_db = a.dir / "site_map_cloud.db";
   Stage by_markers{
@@ -132,7 +166,7 @@ std::vector<Stage> run_site(const SiteBenchArgs& a) {
   const Json rms = j.value("markers", Json()).value("marker_rms_px", Json());
   by_markers.figures = {{"markers_used", number(j.value("rough", Json()), "inliers")},
                         {"marker_rms_px", rms.is_array() && rms.size() == 2 ? rms[1] : Json()}};
-  stages.push_back(std::move(by_markers));
+  keep(stages, std::move(by_markers));
   Stage by_cloud{"register --level pointcloud",
                  measure_verb({"register", "--map", map_db.string(), "--markers", markers.string(),
                                "--out", cloud_db.string(), "--level", "pointcloud", "--scan", e57},
@@ -142,7 +176,7 @@ std::vector<Stage> run_site(const SiteBenchArgs& a) {
   by_cloud.figures = {{"keyframes", number(refined, "keyframes")},
                       {"accepted", number(refined, "accepted")},
                       {"median_correction_mm", 1e3 * number(refined, "median_correction_m")}};
-  stages.push_back(std::move(by_cloud));
+  keep(stages, std::move(by_cloud));
 
   const std::string walk_sequence = (walk / "sequence").string();
   Stage localize{"localize test walk 1",
@@ -156,7 +190,7 @@ std::vector<Stage> run_site(const SiteBenchArgs& a) {
       {"ms_median", j["ms_per_frame_median"]},
       {"ms_p99", j["ms_per_frame_p99"]},
       {"colocation_rmse_mm", 1e3 * number(j, "ate_unaligned_rmse_m")}};
-  stages.push_back(std::move(localize));
+  keep(stages, std::move(localize));
 
   Stage cold{
       "cold starts",
@@ -171,35 +205,14 @@ std::vector<Stage> run_site(const SiteBenchArgs& a) {
                   {"attempts", number(starts, "attempts")},
                   {"ms_median", number(starts, "ms_median")},
                   {"ms_p99", number(starts, "ms_p99")}};
-  stages.push_back(std::move(cold));
+  keep(stages, std::move(cold));
   return stages;
-}
-
-std::string figures_text(const Json& figures) {
-  std::string text;
-  for (const auto& [key, value] : figures.items()) {
-    if (!text.empty()) text += ", ";
-    char buf[64];
-    if (value.is_number_float())
-      std::snprintf(buf, sizeof(buf), "%.4g", value.get<double>());
-    else
-      std::snprintf(buf, sizeof(buf), "%s", value.dump().c_str());
-    text += key + " " + buf;
-  }
-  return text;
 }
 
 void print_table(const std::vector<Stage>& stages) {
   std::printf("\n%-28s %9s %9s %10s  %s\n", "stage", "wall s", "CPU s", "peak MiB", "figures");
-  for (const Stage& s : stages) {
-    if (s.cost)
-      std::printf("%-28s %9.1f %9.1f %10.0f  %s\n", s.name.c_str(), s.cost->wall_s, s.cost->cpu_s,
-                  static_cast<double>(s.cost->peak_rss_bytes) / (1024.0 * 1024.0),
-                  figures_text(s.figures).c_str());
-    else
-      std::printf("%-28s %9s %9s %10s  %s\n", s.name.c_str(), "reused", "", "",
-                  figures_text(s.figures).c_str());
-  }
+  for (const Stage& s : stages)
+    std::printf("%s\n", row_text(s).c_str());
 }
 
 void run_bench_site(const SiteBenchArgs& a) {
