@@ -34,7 +34,8 @@ struct LoopBenchArgs {
 
 struct ModeResult {
   std::vector<double> ate_mm, online_mm, correction_ms;
-  int loops = 0, false_loops = 0, rejected = 0, implausible = 0, lost = 0;
+  int loops = 0, false_loops = 0, rejected = 0, implausible = 0, look_alike = 0, lost = 0;
+  double worst_free_space = 0.0;  // the largest free-space violation of a closed loop
   double worst_loop_m = 0.0, worst_loop_deg = 0.0;
 };
 
@@ -44,10 +45,12 @@ void add_run(ModeResult& m, const slam::pipeline::RunResult& r, const Trajectory
   const auto& loop = r.summary.loop;
   m.rejected += loop.rejected;
   m.implausible += loop.rejected_aliasing;
+  m.look_alike += loop.rejected_look_alike;
   m.lost += static_cast<int>(r.summary.lost);
   for (const auto& l : loop.loops) {
     ++m.loops;
     m.correction_ms.push_back(l.ms);
+    m.worst_free_space = std::max(m.worst_free_space, l.free_space.violation());
     const auto e =
         eval::relative_pose_error(gt, l.current_time, l.candidate_time, l.candidate_from_current);
     if (!e) continue;
@@ -68,6 +71,8 @@ Json mode_json(const ModeResult& m) {
               {"false_loops", m.false_loops},
               {"rejected", m.rejected},
               {"rejected_implausible", m.implausible},
+              {"rejected_look_alike", m.look_alike},
+              {"worst_free_space_violation", m.worst_free_space},
               {"correction_ms", m.correction_ms},
               {"worst_loop_error_m", m.worst_loop_m},
               {"worst_loop_error_deg", m.worst_loop_deg},
@@ -79,10 +84,11 @@ void print_mode(const char* name, const ModeResult& m) {
   const SampleStats corr = summarize(m.correction_ms);
   std::printf(
       "  %-4s ATE mm: median %.2f, mean %.2f, min %.2f, max %.2f (as tracked: median %.2f) | "
-      "loops %d (false %d, worst %.3f m / %.2f deg), rejected %d (%d implausible), correction ms "
-      "median %.1f max %.1f | lost frames %d\n",
+      "loops %d (false %d, worst %.3f m / %.2f deg, depth in free space %.1f %%), rejected %d (%d "
+      "implausible, %d by depth), correction ms median %.1f max %.1f | lost frames %d\n",
       name, ate.median, ate.mean, ate.min, ate.max, online.median, m.loops, m.false_loops,
-      m.worst_loop_m, m.worst_loop_deg, m.rejected, m.implausible, corr.median, corr.max, m.lost);
+      m.worst_loop_m, m.worst_loop_deg, 100.0 * m.worst_free_space, m.rejected, m.implausible,
+      m.look_alike, corr.median, corr.max, m.lost);
 }
 
 void run_loop_bench(const LoopBenchArgs& args) {

@@ -12,8 +12,12 @@
 
 namespace coloc::slam::loop {
 
-LoopCloser::LoopCloser(map::SharedMap& map, LoopOptions options)
-    : shared_(map), options_(options), queue_(options_.queue_capacity), detector_(options_) {
+LoopCloser::LoopCloser(map::SharedMap& map, LoopOptions options, std::optional<Camera> depth_camera)
+    : shared_(map),
+      options_(options),
+      depth_camera_(std::move(depth_camera)),
+      queue_(options_.queue_capacity),
+      detector_(options_) {
   options_.check();
 }
 
@@ -103,23 +107,26 @@ bool LoopCloser::try_close(KeyframeId current, const Detection& detection) {
     LoopVerification v;
     {
       std::lock_guard lock(shared_.mutex);
-      v = verify_loop(shared_.map, current, c.keyframe, options_, rng_);
+      v = verify_loop(shared_.map, current, c.keyframe, options_, rng_,
+                      depth_camera_ ? &*depth_camera_ : nullptr);
     }
     {
       std::lock_guard lock(state_mutex_);
       ++stats_.candidates;
       if (!v.accepted) ++stats_.rejected;
       if (v.implausible) ++stats_.rejected_aliasing;
+      if (v.look_alike) ++stats_.rejected_look_alike;
     }
     if (!v.accepted) {
       // Rejections are routine (the summary counts them); each one's figures are for debugging.
       spdlog::debug(
           "loop rejected: keyframe {} -> {}: {} (score {:.3f}, min {:.3f}, consistency {}, bow "
           "{}, ransac {}, inliers {}, correction {:.3f} m / {:.3f} rad, allowed {:.3f} m / "
-          "{:.3f} rad over {:.2f} m)",
+          "{:.3f} rad over {:.2f} m, depth: {} agree, {} in free space)",
           current.value(), c.keyframe.value(), v.rejection, c.score, detection.min_score,
           c.consistency, v.bow_matches, v.ransac_inliers, v.inliers, v.correction_m,
-          v.correction_rad, v.allowed_m, v.allowed_rad, v.path_m);
+          v.correction_rad, v.allowed_m, v.allowed_rad, v.path_m, v.free_space.agree,
+          v.free_space.violate);
       continue;
     }
     correct(v, c);
@@ -164,17 +171,18 @@ void LoopCloser::correct(const LoopVerification& v, const LoopCandidate& c) {
   r.path_m = v.path_m;
   r.correction_m = v.correction_m;
   r.correction_rad = v.correction_rad;
+  r.free_space = v.free_space;
   r.fused = report.fused;
   r.ms = watch.elapsed_ms();
   spdlog::info(
       "loop closed: keyframe {} -> {} (score {:.3f}, consistency {}, bow {}, ransac {}, inliers "
-      "{}, correction {:.3f} m / {:.4f} rad over {:.2f} m of path, {} neighbours moved, {} "
-      "replaced, {} fused, {} loop connections, essential graph {} keyframes / {} edges, {:.1f} "
-      "ms)",
+      "{}, correction {:.3f} m / {:.4f} rad over {:.2f} m of path, depth {} agree / {} in free "
+      "space, {} neighbours moved, {} replaced, {} fused, {} loop connections, essential graph "
+      "{} keyframes / {} edges, {:.1f} ms)",
       r.current.value(), r.candidate.value(), r.score, r.consistency, r.bow_matches,
-      r.ransac_inliers, r.inliers, r.correction_m, r.correction_rad, r.path_m,
-      report.corrected_neighbours, report.replaced, report.fused, report.loop_connections,
-      report.graph_keyframes, report.graph_edges, r.ms);
+      r.ransac_inliers, r.inliers, r.correction_m, r.correction_rad, r.path_m, r.free_space.agree,
+      r.free_space.violate, report.corrected_neighbours, report.replaced, report.fused,
+      report.loop_connections, report.graph_keyframes, report.graph_edges, r.ms);
   {
     std::lock_guard lock(state_mutex_);
     stats_.loops.push_back(r);

@@ -16,6 +16,7 @@
 #include <condition_variable>
 #include <deque>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <thread>
 #include <vector>
@@ -37,15 +38,17 @@ struct LoopRecord {
   double score = 0.0;
   int consistency = 0, bow_matches = 0, ransac_inliers = 0, inliers = 0;
   double path_m = 0.0, correction_m = 0.0, correction_rad = 0.0;
+  FreeSpaceCount free_space;
   int fused = 0;
   double ms = 0.0;  // correction wall time (map locked, mapping paused)
 };
 
 struct LoopStats {
-  int keyframes = 0;          // keyframes examined
-  int candidates = 0;         // consistent candidates verified
-  int rejected = 0;           // of those, rejected by verification
-  int rejected_aliasing = 0;  // of those, by the plausibility (aliasing) test
+  int keyframes = 0;            // keyframes examined
+  int candidates = 0;           // consistent candidates verified
+  int rejected = 0;             // of those, rejected by verification
+  int rejected_aliasing = 0;    // of those, by the plausibility (aliasing) test
+  int rejected_look_alike = 0;  // of those, by the free-space test
   std::vector<LoopRecord> loops;
   int global_ba_runs = 0, global_ba_aborted = 0;
   std::vector<double> global_ba_ms;
@@ -53,8 +56,10 @@ struct LoopStats {
 
 class LoopCloser final : public map::KeyframeSink {
  public:
-  // `map` must outlive the closer.
-  LoopCloser(map::SharedMap& map, LoopOptions options);
+  // `map` must outlive the closer. `depth_camera`: the camera of the keyframes' stored depth,
+  // for the free-space test (none: the test is not run).
+  LoopCloser(map::SharedMap& map, LoopOptions options,
+             std::optional<Camera> depth_camera = std::nullopt);
   ~LoopCloser() override;  // stop()
   LoopCloser(const LoopCloser&) = delete;
   LoopCloser& operator=(const LoopCloser&) = delete;
@@ -90,6 +95,7 @@ class LoopCloser final : public map::KeyframeSink {
 
   map::SharedMap& shared_;
   LoopOptions options_;
+  std::optional<Camera> depth_camera_;
   mapping::LocalMapper* mapper_ = nullptr;
   StageQueue<map::KeyframeMessage> queue_;
   std::deque<KeyframeId> backlog_;  // closer thread only (drained from queue_ while pausing)

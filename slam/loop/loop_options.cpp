@@ -23,6 +23,10 @@ void LoopOptions::check() const {
   if (!(max_rotation_drift >= 0.0)) throw Error("LoopOptions.max_rotation_drift must be >= 0");
   if (!(max_rotation_drift_per_m >= 0.0))
     throw Error("LoopOptions.max_rotation_drift_per_m must be >= 0");
+  if (!(max_free_space_violation >= 0.0 && max_free_space_violation <= 1.0))
+    throw Error("LoopOptions.max_free_space_violation must be in [0, 1]");
+  if (min_free_space_samples < 1) throw Error("LoopOptions.min_free_space_samples must be >= 1");
+  free_space.check();
   if (!(fusion_radius_px > 0.0)) throw Error("LoopOptions.fusion_radius_px must be > 0");
   if (strong_covisibility < 1) throw Error("LoopOptions.strong_covisibility must be >= 1");
   if (graph_iterations < 1) throw Error("LoopOptions.graph_iterations must be >= 1");

@@ -4,6 +4,7 @@
 // pixels (level 0), Hamming distances between 256-bit ORB descriptors.
 #include <cstddef>
 
+#include "slam/loop/free_space.hpp"
 #include "slam/optim/bundle_adjustment.hpp"
 
 namespace coloc::slam::loop {
@@ -39,6 +40,16 @@ struct LoopOptions {
   double max_drift_per_m = 0.015;           // plus this fraction of the path length
   double max_rotation_drift = 0.10;         // radians at zero path length
   double max_rotation_drift_per_m = 0.005;  // plus radians per metre of path
+
+  // The free-space test (free_space.hpp), when the keyframes store depth and the closer knows
+  // the camera: the new keyframe against the candidate's group, both ways. A loop whose
+  // compared samples violate the other view's free space more often than this is a look-alike.
+  // Measured: TODO
+  bool free_space_test = true;
+  double max_free_space_violation = 0.2;
+  int min_free_space_samples = 200;       // fewer compared samples: no verdict (the loop passes)
+  std::size_t free_space_neighbours = 5;  // the new keyframe's covisible keyframes compared too
+  FreeSpaceOptions free_space;
 
   // Correction.
   double fusion_radius_px = 4.0;

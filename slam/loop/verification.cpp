@@ -89,6 +89,28 @@ void plausibility(const map::Map& map, const map::Keyframe& cur, const LoopOptio
 
 }  // namespace
 
+FreeSpaceCount free_space_against(const map::Map& map, const std::vector<KeyframeId>& near_current,
+                                  const SE3& candidate_world_from_world,
+                                  const std::vector<KeyframeId>& candidate_group,
+                                  const Camera& camera, const FreeSpaceOptions& options) {
+  FreeSpaceCount count;
+  for (KeyframeId c : near_current) {
+    const map::Keyframe* here = map.keyframe(c);
+    if (!here || !here->depth) continue;
+    // This keyframe's pose in the candidate's frame, as the correction would place it.
+    const SE3 world_from_here = candidate_world_from_world * here->cam_from_world().inverse();
+    for (KeyframeId k : candidate_group) {
+      const map::Keyframe* other = map.keyframe(k);
+      if (!other || !other->depth || k == c) continue;
+      const SE3 other_from_here = other->cam_from_world() * world_from_here;
+      count += compare_depth(*here->depth, *other->depth, other_from_here, camera, options);
+      count +=
+          compare_depth(*other->depth, *here->depth, other_from_here.inverse(), camera, options);
+    }
+  }
+  return count;
+}
+
 bool plausible_correction(double correction_m, double correction_rad, double path_m,
                           const LoopOptions& options, double* allowed_m, double* allowed_rad) {
   const double m = options.max_drift_m + options.max_drift_per_m * path_m;
@@ -112,7 +134,7 @@ double path_length(const map::Map& map, KeyframeId from, KeyframeId to) {
 }
 
 LoopVerification verify_loop(const map::Map& map, KeyframeId current, KeyframeId candidate,
-                             const LoopOptions& o, std::mt19937& rng) {
+                             const LoopOptions& o, std::mt19937& rng, const Camera* depth_camera) {
   LoopVerification v;
   v.current = current;
   v.candidate = candidate;
@@ -172,6 +194,19 @@ LoopVerification verify_loop(const map::Map& map, KeyframeId current, KeyframeId
   v.corrected_cam_from_world = f.cam_from_world;
   v.matches = f.points;
   plausibility(map, *cur, o, v);
+  if (!v.accepted || !o.free_space_test || depth_camera == nullptr) return v;
+  std::vector<KeyframeId> near_current{current};
+  for (KeyframeId k : map.covisible(current, o.free_space_neighbours))
+    near_current.push_back(k);
+  v.free_space = free_space_against(map, near_current,
+                                    v.corrected_cam_from_world.inverse() * cur->cam_from_world(),
+                                    group, *depth_camera, o.free_space);
+  if (v.free_space.compared() >= o.min_free_space_samples &&
+      v.free_space.violation() > o.max_free_space_violation) {
+    v.accepted = false;
+    v.look_alike = true;
+    v.rejection = "the depth disagrees (a look-alike place?)";
+  }
   return v;
 }
 

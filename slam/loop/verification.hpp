@@ -6,7 +6,8 @@
 // chi2); pose refinement; a guided projection search of the candidate group's points; a second
 // refinement. Then the plausibility test: the correction this implies (new keyframe's estimated
 // pose against the verified one) must be within what odometry can have drifted over the path
-// between the two keyframes, or the place is only a look-alike.
+// between the two keyframes, or the place is only a look-alike. Last, with a camera and stored
+// depth, the free-space test (free_space.hpp): the depth of the two places must agree.
 //
 // The caller holds the map lock (nothing is written).
 #include <random>
@@ -22,6 +23,7 @@ struct LoopVerification {
   bool accepted = false;
   std::string rejection;     // why not, when not accepted
   bool implausible = false;  // geometry verified, but the correction exceeds the drift bound
+  bool look_alike = false;   // geometry verified and plausible, but the depth disagrees
   KeyframeId current, candidate;
   // The new keyframe's pose in the candidate's frame (the map as it was when the place was
   // first seen), and per keypoint of the new keyframe the candidate-side point it matched.
@@ -32,10 +34,23 @@ struct LoopVerification {
   double correction_m = 0.0;                  // camera centre moved by the correction
   double correction_rad = 0.0;                // rotation of the correction
   double allowed_m = 0.0, allowed_rad = 0.0;  // the plausibility bounds at that path length
+  FreeSpaceCount free_space;  // summed over the candidate's group, both ways (none: not run)
 };
 
+// `depth_camera`: the camera of the keyframes' stored depth images, for the free-space test
+// (nullptr: no free-space test).
 LoopVerification verify_loop(const map::Map& map, KeyframeId current, KeyframeId candidate,
-                             const LoopOptions& options, std::mt19937& rng);
+                             const LoopOptions& options, std::mt19937& rng,
+                             const Camera* depth_camera);
+
+// The free-space count of the keyframes `near_current`, moved into the candidate's frame by the
+// loop's correction `candidate_world_from_world`, against the keyframes of `candidate_group`:
+// every pair with stored depth, both ways. The new keyframe alone may see nothing but the
+// matched wall; its neighbours see the rest of the room.
+FreeSpaceCount free_space_against(const map::Map& map, const std::vector<KeyframeId>& near_current,
+                                  const SE3& candidate_world_from_world,
+                                  const std::vector<KeyframeId>& candidate_group,
+                                  const Camera& camera, const FreeSpaceOptions& options);
 
 // The plausibility test alone: the bounds at `path_m` (LoopVerification::allowed_m / _rad), and
 // whether a correction of `correction_m` / `correction_rad` is within them.

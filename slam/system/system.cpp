@@ -74,8 +74,9 @@ std::string SystemSummary::describe() const {
     correction_ms.push_back(l.ms);
   const SampleStats corr = summarize(correction_ms);
   s << "\nloops: " << loop.loops.size() << " closed, " << loop.rejected << " of " << loop.candidates
-    << " candidates rejected (" << loop.rejected_aliasing << " implausible), correction ms median "
-    << corr.median << ", max " << corr.max << "; global BA " << loop.global_ba_runs << " runs ("
+    << " candidates rejected (" << loop.rejected_aliasing << " implausible, "
+    << loop.rejected_look_alike << " by their depth), correction ms median " << corr.median
+    << ", max " << corr.max << "; global BA " << loop.global_ba_runs << " runs ("
     << loop.global_ba_aborted << " aborted)";
   return s.str();
 }
@@ -107,7 +108,7 @@ System::System(const settings::Settings& settings, const bow::Vocabulary& vocabu
     shared_->readout =
         std::min(options_.mapping.readout_start / settings.fps, options_.mapping.readout_max);
   if (options_.loop.enabled)
-    loop_closer_ = std::make_unique<loop::LoopCloser>(*shared_, options_.loop);
+    loop_closer_ = std::make_unique<loop::LoopCloser>(*shared_, options_.loop, settings.camera);
   mapper_ = std::make_unique<mapping::LocalMapper>(*shared_, vocabulary, detector_.get(),
                                                    settings.markers.size, options_.mapping,
                                                    loop_closer_.get());

@@ -73,6 +73,8 @@ constexpr std::array kTunables{
   Tunable{"loop.max_drift_per_m", [](SystemOptions& o) -> Field { return &o.loop.max_drift_per_m; }},
   Tunable{"loop.max_rotation_drift", [](SystemOptions& o) -> Field { return &o.loop.max_rotation_drift; }},
   Tunable{"loop.max_rotation_drift_per_m", [](SystemOptions& o) -> Field { return &o.loop.max_rotation_drift_per_m; }},
+  Tunable{"loop.free_space_test", [](SystemOptions& o) -> Field { return &o.loop.free_space_test; }},
+  Tunable{"loop.max_free_space_violation", [](SystemOptions& o) -> Field { return &o.loop.max_free_space_violation; }},
   Tunable{"loop.global_ba", [](SystemOptions& o) -> Field { return &o.loop.global_ba; }},
   Tunable{"detect_markers", [](SystemOptions& o) -> Field { return &o.detect_markers; }},
 };
