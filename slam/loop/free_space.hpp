@@ -9,6 +9,8 @@
 //
 // The depth compared is the keyframes' stored small depth image (map::KeyframeDepth), so the
 // test costs a few thousand projections per keyframe pair and needs no recording.
+#include <vector>
+
 #include "slam/core/camera.hpp"
 #include "slam/core/se3.hpp"
 #include "slam/map/keyframe_depth.hpp"
@@ -44,11 +46,17 @@ struct FreeSpaceCount {
   }
 };
 
-// Samples of `from`'s depth, back-projected through `camera`, moved into the other view by
-// `to_cam_from_from_cam`, projected through `camera` and compared with `to`'s depth. Both
-// images come from frames of `camera` (the same sensor; the factor may differ).
-FreeSpaceCount compare_depth(const map::KeyframeDepth& from, const map::KeyframeDepth& to,
-                             const SE3& to_cam_from_from_cam, const Camera& camera,
-                             const FreeSpaceOptions& options);
+// A depth image's samples (every options.stride-th small pixel with depth) back-projected
+// through `camera` into its camera frame: once per keyframe, since undoing lens distortion is the
+// costly step and a keyframe is compared with many others.
+std::vector<Eigen::Vector3d> depth_samples(const map::KeyframeDepth& depth, const Camera& camera,
+                                           const FreeSpaceOptions& options);
+
+// `from_samples` (depth_samples() of one view) moved into the other view by
+// `to_cam_from_from_cam`, projected through `camera` and compared with that view's depth `to`.
+// Both images come from frames of `camera` (the same sensor; the factor may differ).
+FreeSpaceCount compare_depth(const std::vector<Eigen::Vector3d>& from_samples,
+                             const map::KeyframeDepth& to, const SE3& to_cam_from_from_cam,
+                             const Camera& camera, const FreeSpaceOptions& options);
 
 }  // namespace coloc::slam::loop

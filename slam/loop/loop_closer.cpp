@@ -122,11 +122,11 @@ bool LoopCloser::try_close(KeyframeId current, const Detection& detection) {
       spdlog::debug(
           "loop rejected: keyframe {} -> {}: {} (score {:.3f}, min {:.3f}, consistency {}, bow "
           "{}, ransac {}, inliers {}, correction {:.3f} m / {:.3f} rad, allowed {:.3f} m / "
-          "{:.3f} rad over {:.2f} m, depth: {} agree, {} in free space)",
+          "{:.3f} rad over {:.2f} m, depth: {} agree, {} in free space, {:.1f} ms)",
           current.value(), c.keyframe.value(), v.rejection, c.score, detection.min_score,
           c.consistency, v.bow_matches, v.ransac_inliers, v.inliers, v.correction_m,
           v.correction_rad, v.allowed_m, v.allowed_rad, v.path_m, v.free_space.agree,
-          v.free_space.violate);
+          v.free_space.violate, v.free_space_ms);
       continue;
     }
     correct(v, c);

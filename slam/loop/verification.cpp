@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <unordered_map>
 
 #include "slam/core/align.hpp"
+#include "slam/core/timing.hpp"
 #include "slam/matching/pose_support.hpp"
 #include "slam/matching/search.hpp"
 
@@ -93,6 +95,13 @@ FreeSpaceCount free_space_against(const map::Map& map, const std::vector<Keyfram
                                   const SE3& candidate_world_from_world,
                                   const std::vector<KeyframeId>& candidate_group,
                                   const Camera& camera, const FreeSpaceOptions& options) {
+  // Each keyframe's samples are back-projected once, whatever the number of pairs it is in.
+  std::unordered_map<KeyframeId, std::vector<Eigen::Vector3d>> samples;
+  const auto samples_of = [&](const map::Keyframe& kf) -> const std::vector<Eigen::Vector3d>& {
+    auto [it, added] = samples.try_emplace(kf.id);
+    if (added) it->second = depth_samples(*kf.depth, camera, options);
+    return it->second;
+  };
   FreeSpaceCount count;
   for (KeyframeId c : near_current) {
     const map::Keyframe* here = map.keyframe(c);
@@ -103,9 +112,9 @@ FreeSpaceCount free_space_against(const map::Map& map, const std::vector<Keyfram
       const map::Keyframe* other = map.keyframe(k);
       if (!other || !other->depth || k == c) continue;
       const SE3 other_from_here = other->cam_from_world() * world_from_here;
-      count += compare_depth(*here->depth, *other->depth, other_from_here, camera, options);
-      count +=
-          compare_depth(*other->depth, *here->depth, other_from_here.inverse(), camera, options);
+      count += compare_depth(samples_of(*here), *other->depth, other_from_here, camera, options);
+      count += compare_depth(samples_of(*other), *here->depth, other_from_here.inverse(), camera,
+                             options);
     }
   }
   return count;
@@ -198,9 +207,11 @@ LoopVerification verify_loop(const map::Map& map, KeyframeId current, KeyframeId
   std::vector<KeyframeId> near_current{current};
   for (KeyframeId k : map.covisible(current, o.free_space_neighbours))
     near_current.push_back(k);
+  const Stopwatch watch;
   v.free_space = free_space_against(map, near_current,
                                     v.corrected_cam_from_world.inverse() * cur->cam_from_world(),
                                     group, *depth_camera, o.free_space);
+  v.free_space_ms = watch.elapsed_ms();
   if (v.free_space.compared() >= o.min_free_space_samples &&
       v.free_space.violation() > o.max_free_space_violation) {
     v.accepted = false;

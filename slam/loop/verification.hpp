@@ -34,7 +34,8 @@ struct LoopVerification {
   double correction_m = 0.0;                  // camera centre moved by the correction
   double correction_rad = 0.0;                // rotation of the correction
   double allowed_m = 0.0, allowed_rad = 0.0;  // the plausibility bounds at that path length
-  FreeSpaceCount free_space;  // summed over the candidate's group, both ways (none: not run)
+  FreeSpaceCount free_space;   // summed over the candidate's group, both ways (none: not run)
+  double free_space_ms = 0.0;  // the free-space test's time (map locked)
 };
 
 // `depth_camera`: the camera of the keyframes' stored depth images, for the free-space test
