@@ -104,15 +104,31 @@ Frame::Frame(FrameId frame_id, double stamp, features::OrbFeatures feats, std::v
 
 void Frame::assign_grid() {
   const FrameGeometry& g = *geometry_;
-  grid_.assign(static_cast<std::size_t>(g.grid_cols * g.grid_rows), {});
+  const auto cells = static_cast<std::size_t>(g.grid_cols) * static_cast<std::size_t>(g.grid_rows);
   const double sx = g.grid_cols / (g.max_x - g.min_x), sy = g.grid_rows / (g.max_y - g.min_y);
-  for (std::size_t i = 0; i < features.size(); ++i) {
+  // The cell of keypoint i, or `cells` outside the bounds.
+  const auto cell_of = [&](std::size_t i) {
     const auto& kp = features.keypoints[i];
     const int c = static_cast<int>(std::floor((kp.ux - g.min_x) * sx));
     const int r = static_cast<int>(std::floor((kp.uy - g.min_y) * sy));
-    if (c < 0 || r < 0 || c >= g.grid_cols || r >= g.grid_rows) continue;
-    grid_[static_cast<std::size_t>(r * g.grid_cols + c)].push_back(static_cast<std::uint32_t>(i));
-  }
+    if (c < 0 || r < 0 || c >= g.grid_cols || r >= g.grid_rows) return cells;
+    return static_cast<std::size_t>(r * g.grid_cols + c);
+  };
+  // Counting sort by cell, stable: each cell lists its keypoints in ascending order.
+  grid_start_.assign(cells + 1, 0);
+  for (std::size_t i = 0; i < features.size(); ++i)
+    if (const std::size_t cell = cell_of(i); cell < cells) ++grid_start_[cell + 1];
+  for (std::size_t cell = 1; cell <= cells; ++cell)
+    grid_start_[cell] += grid_start_[cell - 1];
+  grid_keypoint_.assign(grid_start_[cells], 0);
+  // grid_start_[cell] serves as the cell's write cursor, which ends at the next cell's start...
+  for (std::size_t i = 0; i < features.size(); ++i)
+    if (const std::size_t cell = cell_of(i); cell < cells)
+      grid_keypoint_[grid_start_[cell]++] = static_cast<std::uint32_t>(i);
+  // ...so shifting the cursors by one cell restores the starts.
+  for (std::size_t cell = cells; cell > 0; --cell)
+    grid_start_[cell] = grid_start_[cell - 1];
+  grid_start_[0] = 0;
 }
 
 Eigen::Vector3d Frame::unproject_world(std::size_t i) const {
@@ -138,7 +154,9 @@ std::vector<std::size_t> Frame::features_in_area(double x, double y, double radi
   const double r2 = radius * radius;
   for (int r = r0; r <= r1; ++r) {
     for (int c = c0; c <= c1; ++c) {
-      for (std::uint32_t i : grid_[static_cast<std::size_t>(r * g.grid_cols + c)]) {
+      const auto cell = static_cast<std::size_t>(r * g.grid_cols + c);
+      for (std::uint32_t k = grid_start_[cell]; k < grid_start_[cell + 1]; ++k) {
+        const std::uint32_t i = grid_keypoint_[k];
         const auto& kp = features.keypoints[i];
         if (kp.level < min_level || (max_level >= 0 && kp.level > max_level)) continue;
         const double dx = kp.ux - x, dy = kp.uy - y;

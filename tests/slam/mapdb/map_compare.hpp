@@ -94,7 +94,7 @@ inline std::string frame_difference(const frame::Frame& a, const frame::Frame& b
       return "feature vector entry " + std::to_string(i);
   }
   if (const std::string g = geometry_difference(a.geometry(), b.geometry()); !g.empty()) return g;
-  if (a.grid_cells() != b.grid_cells()) return "grid";
+  if (a.grid_starts() != b.grid_starts() || a.grid_keypoints() != b.grid_keypoints()) return "grid";
   return {};
 }
 
