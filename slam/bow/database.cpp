@@ -23,16 +23,20 @@ void BowDatabase::add(ImageKey image, const BowVector& bow) {
   if (contains(image)) {
     throw Error("bag-of-words database: image " + std::to_string(image) + " added twice");
   }
+  std::vector<WordId> words;
+  words.reserve(bow.entries.size());
+  for (const auto& e : bow.entries)
+    words.push_back(e.word);
   std::uint32_t slot = 0;
   if (!free_slots_.empty()) {
     slot = free_slots_.back();
     free_slots_.pop_back();
     key_of_[slot] = image;
-    vectors_[slot] = bow;
+    words_[slot] = std::move(words);
   } else {
     slot = static_cast<std::uint32_t>(key_of_.size());
     key_of_.push_back(image);
-    vectors_.push_back(bow);
+    words_.push_back(std::move(words));
   }
   slot_of_[image] = slot;
   for (const auto& e : bow.entries)
@@ -43,12 +47,12 @@ bool BowDatabase::erase(ImageKey image) {
   const auto it = slot_of_.find(image);
   if (it == slot_of_.end()) return false;
   const std::uint32_t slot = it->second;
-  for (const auto& e : vectors_[slot].entries) {
-    auto& postings = inverse_[e.word];
+  for (const WordId word : words_[slot]) {
+    auto& postings = inverse_[word];
     std::erase_if(postings, [slot](const Posting& p) { return p.slot == slot; });
-    if (postings.empty()) inverse_.erase(e.word);
+    if (postings.empty()) inverse_.erase(word);
   }
-  vectors_[slot] = {};
+  words_[slot] = {};
   free_slots_.push_back(slot);
   slot_of_.erase(it);
   return true;
@@ -58,7 +62,7 @@ void BowDatabase::clear() {
   inverse_.clear();
   slot_of_.clear();
   key_of_.clear();
-  vectors_.clear();
+  words_.clear();
   free_slots_.clear();
 }
 

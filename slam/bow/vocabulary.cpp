@@ -80,6 +80,9 @@ void Vocabulary::transform(const std::vector<Descriptor>& descriptors, BowVector
     }
   }
   bow.entries.resize(out);
+  // Room was reserved for one word per descriptor; a keyframe keeps its vector as long as the
+  // map lives, and distinct words are typically a third fewer.
+  bow.entries.shrink_to_fit();
   double norm = 0.0;
   for (const auto& e : bow.entries)
     norm += e.weight;
@@ -90,12 +93,20 @@ void Vocabulary::transform(const std::vector<Descriptor>& descriptors, BowVector
 
   if (!with_direct) return;
   std::sort(direct.begin(), direct.end());
-  for (const auto& [node, feature] : direct) {
-    if (features.entries.empty() || features.entries.back().node != node) {
-      features.entries.push_back({node, {}});
-    }
-    features.entries.back().features.push_back(feature);
+  // Each node's features allocated at their exact count (a keyframe keeps them as long as the
+  // map lives; grown one by one they held up to twice that).
+  for (std::size_t first = 0; first < direct.size();) {
+    std::size_t last = first + 1;
+    while (last < direct.size() && direct[last].first == direct[first].first)
+      ++last;
+    FeatureVector::Entry& e = features.entries.emplace_back();
+    e.node = direct[first].first;
+    e.features.reserve(last - first);
+    for (std::size_t i = first; i < last; ++i)
+      e.features.push_back(direct[i].second);
+    first = last;
   }
+  features.entries.shrink_to_fit();
 }
 
 void Vocabulary::canonicalize() {
