@@ -30,8 +30,11 @@ std::unique_ptr<LocalizationMap> load_localization_map(const std::filesystem::pa
   if (!options.rebuild_bow)
     throw Error("load_localization_map: relocalization needs the BoW database",
                 {.file = path.string(), .field = "LoadOptions.rebuild_bow"});
+  // Only what tracking and relocalization read stays resident: the depth images stay in the
+  // file, the keyframes' BoW vectors in the BoW database's index.
   mapdb::LoadOptions o = options;
-  o.keyframe_depth = false;  // tracking needs none: resident memory stays what tracking needs
+  o.keyframe_depth = false;
+  o.keyframe_bow = false;
   mapdb::LoadedMap loaded = mapdb::load_map(path, vocabulary, o);
   if (loaded.map.keyframe_count() == 0)
     throw Error("the map holds no keyframe to localize in",

@@ -45,8 +45,11 @@ struct LocalizationMap {
   std::size_t points() const { return shared.map.point_count(); }
 };
 
-// Loads a map file (mapdb::load_map, BoW rebuilt with `vocabulary`). Throws coloc::Error
-// naming the file (and table) like load_map, or when the map holds no keyframe.
+// Loads a map file (mapdb::load_map, BoW rebuilt with `vocabulary`) with what localization
+// reads only: whatever `options` say, no keyframe depth images and no keyframe BoW vectors
+// (mapdb::LoadOptions::keyframe_depth, keyframe_bow), so such a map is not one to save or
+// register. Throws coloc::Error naming the file (and table) like load_map, or when the map
+// holds no keyframe.
 std::unique_ptr<LocalizationMap> load_localization_map(const std::filesystem::path& path,
                                                        const bow::Vocabulary& vocabulary,
                                                        const mapdb::LoadOptions& options = {});

@@ -568,8 +568,10 @@ void Loader::rebuild_bow() {
     if (std::this_thread::get_id() == caller && i % 64 == 0 && options_.progress)
       options_.progress(base + i, total_);
   });
-  for (map::Keyframe* kf : keyframes)
+  for (map::Keyframe* kf : keyframes) {
     out_.database.add(kf->id.value(), kf->frame.bow);
+    if (!options_.keyframe_bow) kf->frame.bow = {};  // the database keeps the weights
+  }
   done_ = base + keyframes.size();
 }
 

@@ -124,6 +124,12 @@ struct LoadOptions {
   // none of them, so it leaves them in the file (and unchecked); a map loaded without them must
   // not be saved over one that has them.
   bool keyframe_depth = true;
+  // Each keyframe's BoW vector (frame.bow), when rebuild_bow makes them. Loop closing and local
+  // mapping read it; tracking and relocalization never do (they query `database`, which holds the
+  // same weights in its index), so a localizer drops it after the database has it: about 16 bytes a
+  // word, some 1,000 words a keyframe. Each keyframe keeps its feature vector, which matching
+  // reads, either way.
+  bool keyframe_bow = true;
   ProgressFn progress;
   void check() const;
 };

@@ -219,6 +219,41 @@ TEST(Localizer, NeverChangesTheMap) {
   EXPECT_EQ(file_hash(fixture().map), hash_before);
 }
 
+// A map loaded for localization holds what tracking and relocalization read, nothing more: no
+// keyframe depth images (registration and the viewer load those) and no keyframe BoW vectors
+// (the database has their weights). Everything else equals a full load of the file, and cold
+// starts relocalize through the database alone.
+TEST(Localizer, MapHoldsOnlyWhatLocalizationReads) {
+  Inputs in = open_inputs();
+  const LocalizationMap& light = *in.map;
+  for (const auto& [id, kf] : light.shared.map.keyframes()) {
+    EXPECT_FALSE(kf.depth.has_value()) << "keyframe " << id.value();
+    EXPECT_TRUE(kf.frame.bow.empty()) << "keyframe " << id.value();
+    // Matching by BoW reads the feature vectors: they stay.
+    EXPECT_FALSE(kf.frame.feature_vector.entries.empty()) << "keyframe " << id.value();
+  }
+  mapdb::LoadedMap full = mapdb::load_map(fixture().map, test_support::vocabulary());
+  std::size_t with_depth = 0;
+  full.map.for_each_keyframe([&](map::Keyframe& kf) {
+    with_depth += kf.depth.has_value() ? 1 : 0;
+    EXPECT_FALSE(kf.frame.bow.empty()) << "keyframe " << kf.id.value();
+    kf.depth.reset();
+    kf.frame.bow = {};
+  });
+  EXPECT_GT(with_depth, 0u);  // the file has depth images: the localizer left them there
+  EXPECT_EQ(mapdb::test::map_difference(full.map, light.shared.map), "");
+  EXPECT_EQ(light.shared.database.size(), full.database.size());
+
+  for (std::size_t start : {20u, 95u, 170u}) {
+    Localizer l = make_localizer(in);
+    const LocalizationResult r = localize_frame(l, *in.sequence, start);
+    ASSERT_EQ(r.state, LocalizationState::kRelocalized) << "frame " << start;
+    const auto m = mapped_pose(fixture().mapped, r.timestamp);
+    ASSERT_TRUE(m);
+    EXPECT_LT((m->translation() - r.world_from_cam.translation()).norm(), 0.02);
+  }
+}
+
 // Two localizers on one map in two threads (the map shared read-only): both localize.
 TEST(Localizer, TwoLocalizersShareOneMap) {
   Inputs in = open_inputs();

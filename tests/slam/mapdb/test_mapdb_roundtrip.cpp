@@ -159,14 +159,27 @@ TEST(MapDb, SaveLoadIsIdenticalFieldByField) {
   EXPECT_EQ(info.counts.gyro_links, gyro_rows(original));
   EXPECT_EQ(info.counts.keyframe_depths, depth_rows(original));
 
-  // A localizer's load leaves the depth images in the file, and nothing else.
+  // A localizer's load leaves the depth images in the file and the keyframes' BoW vectors in
+  // the database, and nothing else: with those two put back, it equals the original.
   {
-    LoadOptions without_depth;
-    without_depth.keyframe_depth = false;
-    const LoadedMap light = load_map(path, test_support::vocabulary(), without_depth);
+    LoadOptions light_options;
+    light_options.keyframe_depth = false;
+    light_options.keyframe_bow = false;
+    LoadedMap light = load_map(path, test_support::vocabulary(), light_options);
     EXPECT_EQ(depth_rows(light.map), 0u);
     EXPECT_EQ(light.map.keyframe_count(), original.keyframe_count());
     EXPECT_EQ(light.map.point_count(), original.point_count());
+    bow::BowDatabase database;
+    for (const auto& [id, kf] : original.keyframes())
+      database.add(id.value(), kf.frame.bow);
+    expect_same_database(original, database, light.database);
+    light.map.for_each_keyframe([&](map::Keyframe& kf) {
+      EXPECT_TRUE(kf.frame.bow.empty()) << "keyframe " << kf.id.value();
+      const map::Keyframe& full = *original.keyframe(kf.id);
+      kf.frame.bow = full.frame.bow;
+      kf.depth = full.depth;
+    });
+    EXPECT_EQ(map_difference(original, light.map), "");
   }
 
   LoadedMap loaded = load_map(path, test_support::vocabulary());
