@@ -6,7 +6,7 @@
 
 namespace coloc::registration::render::detail {
 
-GlContext::GlContext() {
+GlContext::GlContext(const GlContext* share) {
   const int attributes[] = {OSMESA_FORMAT,
                             OSMESA_RGBA,
                             OSMESA_DEPTH_BITS,
@@ -20,7 +20,7 @@ GlContext::GlContext() {
                             OSMESA_CONTEXT_MINOR_VERSION,
                             3,
                             0};
-  context_ = OSMesaCreateContextAttribs(attributes, nullptr);
+  context_ = OSMesaCreateContextAttribs(attributes, share != nullptr ? share->context_ : nullptr);
   if (context_ == nullptr) {
     throw Error("OSMesa: cannot create a GL 3.3 compatibility context (is Mesa's llvmpipe there?)");
   }
@@ -36,6 +36,11 @@ void GlContext::make_current() {
   if (!OSMesaMakeCurrent(context_, dummy_.data(), GL_UNSIGNED_BYTE, 1, 1)) {
     throw Error("OSMesa: cannot make the context current");
   }
+}
+
+void GlContext::release() {
+  if (context_ != nullptr && OSMesaGetCurrentContext() == context_)
+    OSMesaMakeCurrent(nullptr, nullptr, 0, 0, 0);
 }
 
 namespace {

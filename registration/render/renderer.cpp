@@ -4,10 +4,12 @@
 #include <cstddef>
 #include <limits>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "registration/render/cloud_cells.hpp"
 #include "registration/render/distortion_warp.hpp"
 #include "registration/render/gl_context.hpp"
+#include "registration/render/point_buffer.hpp"
 #include "slam/core/error.hpp"
 
 namespace coloc::registration::render {
@@ -55,20 +57,26 @@ uniform mat4 u_cam_from_world;
 uniform mat4 u_proj;
 uniform float u_focal;
 uniform float u_max_pixels;
-flat out vec3 v_pcam;
+flat out vec3 v_world;
+flat out float v_depth;
 flat out vec3 v_colour;
 flat out int v_index;
 void main() {
   vec4 pc = u_cam_from_world * vec4(a_pos, 1.0);
-  v_pcam = pc.xyz;
+  v_world = a_pos;
+  v_depth = pc.z;
   v_colour = a_colour;
   v_index = gl_VertexID;
   gl_Position = u_proj * pc;
   gl_PointSize = clamp(u_focal * a_splat / max(pc.z, 1e-6), 1.0, u_max_pixels);
 })";
 
+// The position attachment holds (world point, depth) for a splat, where the mesh writes
+// (camera-frame point, 1): flat varyings carry the vertex's position with its exact float bits,
+// so read_back needs no CPU copy of the cloud's points (12 B per point).
 constexpr const char* kPointFragment = R"(#version 330
-flat in vec3 v_pcam;
+flat in vec3 v_world;
+flat in float v_depth;
 flat in vec3 v_colour;
 flat in int v_index;
 layout(location = 0) out vec4 o_colour;
@@ -76,7 +84,7 @@ layout(location = 1) out vec4 o_pcam;
 layout(location = 2) out int o_index;
 void main() {
   o_colour = vec4(v_colour, 1.0);
-  o_pcam = vec4(v_pcam, 1.0);
+  o_pcam = vec4(v_world, v_depth);
   o_index = v_index;
 })";
 
@@ -106,16 +114,6 @@ struct MeshBuffers {
   std::vector<GLuint> textures;
 };
 
-struct PointBuffers {
-  GLuint vao = 0;
-  GLuint vbo = 0;
-  GLsizei count = 0;
-  float splat_size = 0.0f;
-  float max_pixels = 0.0f;
-  std::vector<Eigen::Vector3f> points;  // upload order: the exact per-pixel 3-D points
-  CloudCells cells;  // upload order; no cells: uploaded in cloud order, drawn whole
-};
-
 struct Framebuffer {
   GLuint fbo = 0;
   std::array<GLuint, 4> renderbuffers{};  // colour, position, index, depth
@@ -139,17 +137,53 @@ void RenderOptions::check() const {
   if (!(cull_cell >= 0.0)) throw Error("cull_cell must be >= 0", {.field = "cull_cell"});
 }
 
+struct SharedPointCloud::Impl {
+  detail::GlContext context;  // the share group's first context; current only here
+  detail::PointBuffer buffer;
+
+  Impl(const PointCloud& cloud, const RenderOptions& options) {
+    options.check();
+    cloud.check();
+    buffer = detail::make_point_buffer(cloud, options.cull_cell);
+    context.release();
+  }
+
+  ~Impl() {
+    context.make_current();
+    buffer.vbo.reset();
+    context.release();
+  }
+};
+
+SharedPointCloud::SharedPointCloud(const PointCloud& cloud, const RenderOptions& options)
+    : impl_(std::make_unique<Impl>(cloud, options)) {}
+SharedPointCloud::~SharedPointCloud() = default;
+
+std::size_t SharedPointCloud::size() const {
+  return static_cast<std::size_t>(impl_->buffer.count);
+}
+
+std::size_t SharedPointCloud::bytes() const {
+  return impl_->buffer.bytes();
+}
+
 struct Renderer::Impl {
   RenderOptions options;
+  // The shared cloud drawn, if any. Declared before `context` so that the share group's first
+  // context outlives this one (Mesa would cope, but then deletion order is plain to read).
+  std::shared_ptr<const SharedPointCloud> shared;
   detail::GlContext context;
   GLuint mesh_program = 0;
   GLuint point_program = 0;
   MeshBuffers mesh;
-  PointBuffers cloud;
+  std::optional<detail::PointBuffer> own_cloud;    // set_point_cloud's, in this context
+  const detail::PointBuffer* cloud = nullptr;      // own_cloud or shared's; null: none
+  detail::GlName<glDeleteVertexArrays> cloud_vao;  // this context's view of *cloud
   Framebuffer framebuffer;
   DistortionWarp warp;
 
-  explicit Impl(RenderOptions o) : options(o) {
+  Impl(RenderOptions o, std::shared_ptr<const SharedPointCloud> s)
+      : options(o), shared(std::move(s)), context(shared ? &shared->impl_->context : nullptr) {
     options.check();
     mesh_program = detail::build_program(kMeshVertex, kMeshFragment, "mesh");
     point_program = detail::build_program(kPointVertex, kPointFragment, "points");
@@ -160,15 +194,16 @@ struct Renderer::Impl {
     glDisable(GL_DITHER);
     glDisable(GL_MULTISAMPLE);
     detail::check_gl("renderer setup");
+    if (shared) use_cloud(shared->impl_->buffer);
   }
 
   ~Impl() {
     context.make_current();
     release_mesh();
-    release_cloud();
     release_framebuffer();
     glDeleteProgram(mesh_program);
     glDeleteProgram(point_program);
+    release_cloud();  // last: dropping a shared cloud may leave no context current
   }
 
   void release_mesh() {
@@ -182,10 +217,20 @@ struct Renderer::Impl {
     mesh = {};
   }
 
+  // Needs this context current; it is current again on return.
   void release_cloud() {
-    glDeleteBuffers(1, &cloud.vbo);
-    glDeleteVertexArrays(1, &cloud.vao);
-    cloud = {};
+    cloud_vao.reset();
+    cloud = nullptr;
+    own_cloud.reset();
+    if (shared) {
+      shared.reset();  // the last holder deletes the buffer in the cloud's own context
+      context.make_current();
+    }
+  }
+
+  void use_cloud(const detail::PointBuffer& buffer) {
+    cloud = &buffer;
+    cloud_vao = detail::make_point_vertex_array(buffer);
   }
 
   void release_framebuffer() {
@@ -261,49 +306,8 @@ struct Renderer::Impl {
 
   void upload_cloud(const PointCloud& c) {
     release_cloud();
-    struct Vertex {
-      float x, y, z;
-      std::uint8_t r, g, b, pad;
-      float size;
-    };
-    if (options.cull_cell > 0.0)
-      cloud.cells = group_into_cells(c, static_cast<float>(options.cull_cell));
-    const auto index_of = [&](std::size_t pos) {
-      return cloud.cells.order.empty() ? pos : cloud.cells.order[pos];
-    };
-    std::vector<Vertex> vertices(c.points.size());
-    cloud.points.resize(c.points.size());
-    for (std::size_t pos = 0; pos < c.points.size(); ++pos) {
-      const std::size_t i = index_of(pos);
-      cloud.points[pos] = c.points[i];
-      vertices[pos] = {c.points[i].x(),
-                       c.points[i].y(),
-                       c.points[i].z(),
-                       c.colours[i][0],
-                       c.colours[i][1],
-                       c.colours[i][2],
-                       0,
-                       c.splat_sizes.empty() ? c.splat_size : c.splat_sizes[i]};
-    }
-    glGenVertexArrays(1, &cloud.vao);
-    glBindVertexArray(cloud.vao);
-    glGenBuffers(1, &cloud.vbo);
-    glBindBuffer(GL_ARRAY_BUFFER, cloud.vbo);
-    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(vertices.size() * sizeof(Vertex)),
-                 vertices.data(), GL_STATIC_DRAW);
-    glEnableVertexAttribArray(0);
-    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(Vertex), nullptr);
-    glEnableVertexAttribArray(1);
-    glVertexAttribPointer(1, 3, GL_UNSIGNED_BYTE, GL_TRUE, sizeof(Vertex),
-                          reinterpret_cast<const void*>(3 * sizeof(float)));
-    glEnableVertexAttribArray(2);
-    glVertexAttribPointer(2, 1, GL_FLOAT, GL_FALSE, sizeof(Vertex),
-                          reinterpret_cast<const void*>(offsetof(Vertex, size)));
-    glBindVertexArray(0);
-    cloud.count = static_cast<GLsizei>(c.points.size());
-    cloud.splat_size = c.splat_size;
-    cloud.max_pixels = c.max_splat_pixels;
-    detail::check_gl("point cloud upload");
+    own_cloud = detail::make_point_buffer(c, options.cull_cell);
+    use_cloud(*own_cloud);
   }
 
   void ensure_framebuffer(int width, int height) {
@@ -371,18 +375,18 @@ struct Renderer::Impl {
         glDrawElements(GL_TRIANGLES, part.count, GL_UNSIGNED_INT, nullptr);
       }
     }
-    if (has(Layer::kPoints) && cloud.vao != 0) {
+    if (has(Layer::kPoints) && cloud != nullptr) {
       set_common_uniforms(point_program, pose, proj);
       glUniform1f(glGetUniformLocation(point_program, "u_focal"),
                   static_cast<float>(std::max(ideal.fx, ideal.fy)));
-      glUniform1f(glGetUniformLocation(point_program, "u_max_pixels"), cloud.max_pixels);
-      glBindVertexArray(cloud.vao);
-      if (cloud.cells.cells.empty()) {
-        glDrawArrays(GL_POINTS, 0, cloud.count);
+      glUniform1f(glGetUniformLocation(point_program, "u_max_pixels"), cloud->max_pixels);
+      glBindVertexArray(cloud_vao.get());
+      if (cloud->cells.cells.empty()) {
+        glDrawArrays(GL_POINTS, 0, cloud->count);
       } else {
         for (const auto& [first, count] :
-             visible_ranges(cloud.cells, ideal, cam_from_world, options.near_plane,
-                            options.far_plane, 0.5 * cloud.max_pixels + 1.0))
+             visible_ranges(cloud->cells, ideal, cam_from_world, options.near_plane,
+                            options.far_plane, 0.5 * cloud->max_pixels + 1.0))
           glDrawArrays(GL_POINTS, static_cast<GLint>(first), static_cast<GLsizei>(count));
       }
     }
@@ -400,7 +404,8 @@ struct Renderer::Impl {
     cv::Mat colour(h, w, CV_8UC3);
     glReadBuffer(GL_COLOR_ATTACHMENT0);
     glReadPixels(0, 0, w, h, GL_RGB, GL_UNSIGNED_BYTE, colour.data);
-    cv::Mat pcam(h, w, CV_32FC4);  // camera-frame point, w = 1 where something was hit
+    // Mesh: (camera-frame point, 1); splat: (world point, depth); nothing: 0.
+    cv::Mat pcam(h, w, CV_32FC4);
     glReadBuffer(GL_COLOR_ATTACHMENT1);
     glReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, pcam.data);
     cv::Mat index(h, w, CV_32S);
@@ -427,10 +432,8 @@ struct Renderer::Impl {
       for (int u = 0; u < ow; ++u) {
         const int su = u * s + s / 2;
         const int id = index.at<int>(sv, su);  // upload position
-        r.index.at<int>(v, u) =
-            id >= 0 && !cloud.cells.order.empty()
-                ? static_cast<int>(cloud.cells.order[static_cast<std::size_t>(id)])
-                : id;
+        const bool splat = id >= 0 && cloud != nullptr;
+        r.index.at<int>(v, u) = splat ? cloud->cloud_index(id) : -1;
         auto& out = r.points.at<cv::Vec3f>(v, u);
         const cv::Vec4f& pc = pcam.at<cv::Vec4f>(sv, su);
         if (pc[3] <= 0.0f) {
@@ -438,11 +441,11 @@ struct Renderer::Impl {
           out = cv::Vec3f(nan, nan, nan);
           continue;
         }
-        r.depth.at<float>(v, u) = pc[2];
-        if (id >= 0 && static_cast<std::size_t>(id) < cloud.points.size()) {
-          const Eigen::Vector3f& p = cloud.points[static_cast<std::size_t>(id)];
-          out = cv::Vec3f(p.x(), p.y(), p.z());
+        if (splat) {
+          r.depth.at<float>(v, u) = pc[3];
+          out = cv::Vec3f(pc[0], pc[1], pc[2]);
         } else {
+          r.depth.at<float>(v, u) = pc[2];
           const Eigen::Vector3d p = rot * Eigen::Vector3d(pc[0], pc[1], pc[2]) + trans;
           out = cv::Vec3f(static_cast<float>(p.x()), static_cast<float>(p.y()),
                           static_cast<float>(p.z()));
@@ -453,7 +456,12 @@ struct Renderer::Impl {
   }
 };
 
-Renderer::Renderer(RenderOptions options) : impl_(std::make_unique<Impl>(options)) {}
+Renderer::Renderer(RenderOptions options) : impl_(std::make_unique<Impl>(options, nullptr)) {}
+
+Renderer::Renderer(RenderOptions options, std::shared_ptr<const SharedPointCloud> cloud) {
+  if (!cloud) throw Error("Renderer: no shared point cloud", {.field = "cloud"});
+  impl_ = std::make_unique<Impl>(options, std::move(cloud));
+}
 Renderer::~Renderer() = default;
 Renderer::Renderer(Renderer&&) noexcept = default;
 Renderer& Renderer::operator=(Renderer&&) noexcept = default;

@@ -1,8 +1,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <memory>
 #include <opencv2/core.hpp>
+#include <thread>
 
 #include "registration/render/cloud_cells.hpp"
 #include "registration/render/renderer.hpp"
@@ -310,6 +313,84 @@ TEST(Renderer, CullingByCellsDrawsTheSameImage) {
     drawn += range.second;
   EXPECT_GT(drawn, 0u);
   EXPECT_LT(drawn, cloud.points.size() / 2);
+}
+
+bool same_bytes(const cv::Mat& a, const cv::Mat& b) {
+  return a.type() == b.type() && a.size() == b.size() && a.isContinuous() && b.isContinuous() &&
+         std::memcmp(a.data, b.data, a.total() * a.elemSize()) == 0;
+}
+
+bool same_render(const RenderResult& a, const RenderResult& b) {
+  return same_bytes(a.colour, b.colour) && same_bytes(a.depth, b.depth) &&
+         same_bytes(a.points, b.points) && same_bytes(a.index, b.index);
+}
+
+TEST(Renderer, RenderersSharingOneCloudOnTwoThreadsDrawWhatOneDrawsAlone) {
+  const PointCloud cloud = room_cloud();
+  const PinholeCamera cam = small_camera();
+  std::vector<SE3> cam_from_worlds;
+  for (int k = 0; k < 8; ++k) {
+    const double yaw = 0.8 * k;
+    cam_from_worlds.push_back(SE3(SO3::exp({0.1 * (k % 3) - 0.1, yaw, 0.0}),
+                                  Eigen::Vector3d(1.0 + 0.8 * k, 1.0 + 0.5 * k, 1.5))
+                                  .inverse());
+  }
+  Renderer alone;
+  alone.set_point_cloud(cloud);
+  std::vector<RenderResult> expected;
+  for (const SE3& pose : cam_from_worlds)
+    expected.push_back(alone.render(cam, pose, Layer::kPoints));
+
+  auto shared = std::make_shared<const SharedPointCloud>(cloud);
+  EXPECT_EQ(shared->size(), cloud.points.size());
+  // The vertex (20 B) and its upload position (4 B), once for every Renderer.
+  EXPECT_LT(shared->bytes(), 25 * cloud.points.size());
+  // Each thread draws every view three times, in its own order, so the two draw at once.
+  constexpr int kRounds = 3;
+  std::array<std::vector<RenderResult>, 2> got;
+  std::array<std::thread, 2> threads;
+  for (std::size_t t = 0; t < 2; ++t) {
+    threads[t] = std::thread([&, t, mine = shared] {
+      Renderer renderer({}, mine);
+      for (int round = 0; round < kRounds; ++round) {
+        for (std::size_t k = 0; k < cam_from_worlds.size(); ++k) {
+          const std::size_t view = t == 0 ? k : cam_from_worlds.size() - 1 - k;
+          got[t].push_back(renderer.render(cam, cam_from_worlds[view], Layer::kPoints));
+        }
+      }
+    });
+  }
+  shared.reset();  // the Renderers keep the cloud alive
+  for (std::thread& t : threads)
+    t.join();
+  for (std::size_t t = 0; t < 2; ++t) {
+    ASSERT_EQ(got[t].size(), kRounds * cam_from_worlds.size());
+    for (std::size_t i = 0; i < got[t].size(); ++i) {
+      const std::size_t k = i % cam_from_worlds.size();
+      const std::size_t view = t == 0 ? k : cam_from_worlds.size() - 1 - k;
+      EXPECT_TRUE(same_render(got[t][i], expected[view])) << "thread " << t << " view " << view;
+    }
+  }
+  // Not everything is empty: the views see the room.
+  EXPECT_GT(cv::countNonZero(expected[0].index >= 0), cam.width * cam.height / 2);
+}
+
+TEST(Renderer, SharedCloudCanBeReplacedByOwnCloud) {
+  const PointCloud cloud = room_cloud();
+  PointCloud other = cloud;
+  for (auto& c : other.colours)
+    c = {200, 10, 10};
+  Renderer renderer({}, std::make_shared<const SharedPointCloud>(cloud));
+  const SE3 pose = SE3(SO3::exp({0.0, 1.2, 0.0}), Eigen::Vector3d(1.0, 3.0, 1.5)).inverse();
+  const PinholeCamera cam = small_camera();
+  const RenderResult before = renderer.render(cam, pose, Layer::kPoints);
+  renderer.set_point_cloud(other);  // drops the shared cloud (its last holder)
+  const RenderResult after = renderer.render(cam, pose, Layer::kPoints);
+  EXPECT_TRUE(same_bytes(before.depth, after.depth));
+  EXPECT_FALSE(same_bytes(before.colour, after.colour));
+  renderer.clear_point_cloud();
+  EXPECT_EQ(cv::countNonZero(renderer.render(cam, pose, Layer::kPoints).index >= 0), 0);
+  EXPECT_THROW(Renderer({}, nullptr), Error);
 }
 
 TEST(Renderer, RejectsBadInput) {
