@@ -13,7 +13,8 @@
 //
 // Threads: keyframes are matched on `threads` worker threads, each with its own Renderer (an
 // OSMesa context is current in one thread at a time; Renderer makes its own context current on
-// every call) and its own ORB extractor. The result does not depend on the thread count.
+// every call) and its own ORB extractor; the renderers draw one render::SharedPointCloud, so the
+// cloud's memory does not grow with the thread count. The result does not depend on it either.
 // `progress` is called from the workers, one call at a time (serialized by a mutex).
 #include <functional>
 #include <optional>
