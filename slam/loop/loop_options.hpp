@@ -44,9 +44,11 @@ struct LoopOptions {
   // The free-space test (free_space.hpp), when the keyframes store depth and the closer knows
   // the camera: the new keyframe against the candidate's group, both ways. A loop whose
   // compared samples violate the other view's free space more often than this is a look-alike.
-  // Measured: TODO
+  // Measured share of samples in free space: true loops 0.002-0.016 % (twin site, 7 loops; twin
+  // building 0.003 %), real 7-Scenes depth at the true pose 0.04-0.8 %; the site's look-alike
+  // rooms (the same wall papers, other furniture) 8.4 %; a pose 0.3 m off 79-97 %.
   bool free_space_test = true;
-  double max_free_space_violation = 0.2;
+  double max_free_space_violation = 0.04;
   int min_free_space_samples = 200;       // fewer compared samples: no verdict (the loop passes)
   std::size_t free_space_neighbours = 5;  // the new keyframe's covisible keyframes compared too
   FreeSpaceOptions free_space;
