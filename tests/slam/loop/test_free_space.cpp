@@ -11,6 +11,7 @@
 #include "slam/dataset/sequence.hpp"
 #include "slam/loop/free_space.hpp"
 #include "slam/loop/loop_options.hpp"
+#include "tests/testing/cameras.hpp"
 #include "tests/testing/data.hpp"
 
 namespace coloc::slam::loop {
@@ -45,15 +46,10 @@ double leave(const Box& b, const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
   return t;
 }
 
+// A real lens (TUM fr1's, strong radial distortion): the test must not mistake distortion for
+// space.
 PinholeCamera camera() {
-  PinholeCamera c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = c.fy = 525.0;
-  c.cx = 319.5;
-  c.cy = 239.5;
-  c.distortion = {0.12, -0.05, 0.0, 0.0, 0.0};  // the test must not mistake distortion for space
-  return c;
+  return testing::tum_fr1_camera();
 }
 
 map::KeyframeDepth render(const Room& room, const SE3& cam_from_world) {
