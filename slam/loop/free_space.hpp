@@ -9,6 +9,7 @@
 //
 // The depth compared is the keyframes' stored small depth image (map::KeyframeDepth), so the
 // test costs a few thousand projections per keyframe pair and needs no recording.
+#include <algorithm>
 #include <vector>
 
 #include "slam/core/camera.hpp"
@@ -33,6 +34,11 @@ struct FreeSpaceCount {
   int agree = 0;     // samples on the surface the other view sees
   int occluded = 0;  // behind it (no evidence either way)
   int violate = 0;   // in front of everything the other view measured there
+  // The largest violation() of one keyframe pair (both ways) with at least kPairSamples
+  // compared: logged beside the sum, which dilutes a look-alike's evidence over the pairs that
+  // see only the shared walls (0 when no pair had enough samples).
+  static constexpr int kPairSamples = 500;
+  double worst_pair = 0.0;
   int compared() const { return agree + violate; }
   // Share of the compared samples that violate (0 when none was compared).
   double violation() const {
@@ -42,6 +48,7 @@ struct FreeSpaceCount {
     agree += o.agree;
     occluded += o.occluded;
     violate += o.violate;
+    worst_pair = std::max(worst_pair, o.worst_pair);
     return *this;
   }
 };

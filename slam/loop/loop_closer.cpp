@@ -122,11 +122,13 @@ bool LoopCloser::try_close(KeyframeId current, const Detection& detection) {
       spdlog::debug(
           "loop rejected: keyframe {} -> {}: {} (score {:.3f}, min {:.3f}, consistency {}, bow "
           "{}, ransac {}, inliers {}, correction {:.3f} m / {:.3f} rad, allowed {:.3f} m / "
-          "{:.3f} rad over {:.2f} m, depth: {} agree, {} in free space, {:.1f} ms)",
+          "{:.3f} rad over {:.2f} m, depth: {} agree, {} in free space, worst pair {:.2f} %, "
+          "{:.1f} "
+          "ms)",
           current.value(), c.keyframe.value(), v.rejection, c.score, detection.min_score,
           c.consistency, v.bow_matches, v.ransac_inliers, v.inliers, v.correction_m,
           v.correction_rad, v.allowed_m, v.allowed_rad, v.path_m, v.free_space.agree,
-          v.free_space.violate, v.free_space_ms);
+          v.free_space.violate, 100.0 * v.free_space.worst_pair, v.free_space_ms);
       continue;
     }
     correct(v, c);
@@ -177,12 +179,14 @@ void LoopCloser::correct(const LoopVerification& v, const LoopCandidate& c) {
   spdlog::info(
       "loop closed: keyframe {} -> {} (score {:.3f}, consistency {}, bow {}, ransac {}, inliers "
       "{}, correction {:.3f} m / {:.4f} rad over {:.2f} m of path, depth {} agree / {} in free "
-      "space, {} neighbours moved, {} replaced, {} fused, {} loop connections, essential graph "
+      "space (worst pair {:.2f} %), {} neighbours moved, {} replaced, {} fused, {} loop "
+      "connections, essential graph "
       "{} keyframes / {} edges, {:.1f} ms)",
       r.current.value(), r.candidate.value(), r.score, r.consistency, r.bow_matches,
       r.ransac_inliers, r.inliers, r.correction_m, r.correction_rad, r.path_m, r.free_space.agree,
-      r.free_space.violate, report.corrected_neighbours, report.replaced, report.fused,
-      report.loop_connections, report.graph_keyframes, report.graph_edges, r.ms);
+      r.free_space.violate, 100.0 * r.free_space.worst_pair, report.corrected_neighbours,
+      report.replaced, report.fused, report.loop_connections, report.graph_keyframes,
+      report.graph_edges, r.ms);
   {
     std::lock_guard lock(state_mutex_);
     stats_.loops.push_back(r);

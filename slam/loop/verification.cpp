@@ -112,9 +112,12 @@ FreeSpaceCount free_space_against(const map::Map& map, const std::vector<Keyfram
       const map::Keyframe* other = map.keyframe(k);
       if (!other || !other->depth || k == c) continue;
       const SE3 other_from_here = other->cam_from_world() * world_from_here;
-      count += compare_depth(samples_of(*here), *other->depth, other_from_here, camera, options);
-      count += compare_depth(samples_of(*other), *here->depth, other_from_here.inverse(), camera,
-                             options);
+      FreeSpaceCount pair =
+          compare_depth(samples_of(*here), *other->depth, other_from_here, camera, options);
+      pair += compare_depth(samples_of(*other), *here->depth, other_from_here.inverse(), camera,
+                            options);
+      if (pair.compared() >= FreeSpaceCount::kPairSamples) pair.worst_pair = pair.violation();
+      count += pair;
     }
   }
   return count;
