@@ -112,6 +112,7 @@ struct CompressedVectorReader::Channel {
   std::vector<std::uint8_t> buf;  // [0, end) valid bytes, then kPad zeros
   std::size_t end = 0;
   std::uint64_t bit = 0;  // bits consumed from buf[0]
+  std::size_t done = 0;   // values decoded by the current read()
 };
 
 struct CompressedVectorReader::Packet {
@@ -335,46 +336,46 @@ void decode_into(const Codec& codec, const std::uint8_t* buf, std::uint64_t& bit
 
 }  // namespace
 
-void CompressedVectorReader::decode(Channel& c, const Sink& sink, std::size_t n) {
-  std::size_t done = 0;
+bool CompressedVectorReader::decode_buffered(Channel& c, const Sink& sink, std::size_t n) {
   const unsigned bits = c.codec.bits;
-  while (done < n) {
-    std::size_t k = n - done;
-    if (bits > 0) {
-      const std::uint64_t avail = std::uint64_t{c.end} * 8 - c.bit;
-      k = static_cast<std::size_t>(std::min<std::uint64_t>(k, avail / bits));
-      if (k == 0) {
-        refill(c);
-        continue;
-      }
+  std::size_t k = n - c.done;
+  if (bits > 0) {
+    std::uint64_t avail = std::uint64_t{c.end} * 8 - c.bit;
+    while (avail < bits) {  // a value may straddle packets, or a slice may be empty
+      refill(c);
+      avail = std::uint64_t{c.end} * 8 - c.bit;
     }
-    bool bad = false;
-    switch (sink.type) {
-      case Sink::Type::kDouble:
-        decode_into<double>(c.codec, c.buf.data(), c.bit, sink.data, done, k, bad);
-        break;
-      case Sink::Type::kFloat:
-        decode_into<float>(c.codec, c.buf.data(), c.bit, sink.data, done, k, bad);
-        break;
-      case Sink::Type::kInt8:
-        decode_into<std::int8_t>(c.codec, c.buf.data(), c.bit, sink.data, done, k, bad);
-        break;
-      case Sink::Type::kInt32:
-        decode_into<std::int32_t>(c.codec, c.buf.data(), c.bit, sink.data, done, k, bad);
-        break;
-      case Sink::Type::kInt64:
-        decode_into<std::int64_t>(c.codec, c.buf.data(), c.bit, sink.data, done, k, bad);
-        break;
-      case Sink::Type::kNone:
-        return;
-    }
-    if (bad) {
-      throw file_.error_at("bytestream " + std::to_string(&c - channels_.data()) +
-                               " holds a value outside its prototype's [minimum, maximum]",
-                           c.next_packet, element_);
-    }
-    done += k;
+    k = static_cast<std::size_t>(std::min<std::uint64_t>(k, avail / bits));
   }
+  bool bad = false;
+  const std::size_t done = c.done;
+  switch (sink.type) {
+    case Sink::Type::kDouble:
+      decode_into<double>(c.codec, c.buf.data(), c.bit, sink.data, done, k, bad);
+      break;
+    case Sink::Type::kFloat:
+      decode_into<float>(c.codec, c.buf.data(), c.bit, sink.data, done, k, bad);
+      break;
+    case Sink::Type::kInt8:
+      decode_into<std::int8_t>(c.codec, c.buf.data(), c.bit, sink.data, done, k, bad);
+      break;
+    case Sink::Type::kInt32:
+      decode_into<std::int32_t>(c.codec, c.buf.data(), c.bit, sink.data, done, k, bad);
+      break;
+    case Sink::Type::kInt64:
+      decode_into<std::int64_t>(c.codec, c.buf.data(), c.bit, sink.data, done, k, bad);
+      break;
+    case Sink::Type::kNone:
+      c.done = n;
+      return true;
+  }
+  if (bad) {
+    throw file_.error_at("bytestream " + std::to_string(&c - channels_.data()) +
+                             " holds a value outside its prototype's [minimum, maximum]",
+                         c.next_packet, element_);
+  }
+  c.done += k;
+  return c.done == n;
 }
 
 std::size_t CompressedVectorReader::read(std::size_t n, std::span<const Sink> sinks) {
@@ -383,8 +384,18 @@ std::size_t CompressedVectorReader::read(std::size_t n, std::span<const Sink> si
   }
   n = static_cast<std::size_t>(std::min<std::uint64_t>(n, record_count_ - records_read_));
   if (n == 0) return 0;
-  for (std::size_t i = 0; i < channels_.size(); ++i) {
-    if (sinks[i].type != Sink::Type::kNone) decode(channels_[i], sinks[i], n);
+  // The channels take turns, each decoding what it holds (about one packet's slice) before the
+  // next: so they walk the packets together and each packet is read, checked and parsed once.
+  // Decoding one channel's n values at a time would run it many packets ahead of the others,
+  // out of the packet cache, and read every packet again for every channel.
+  for (Channel& c : channels_)
+    c.done = 0;
+  for (bool pending = true; pending;) {
+    pending = false;
+    for (std::size_t i = 0; i < channels_.size(); ++i) {
+      if (sinks[i].type == Sink::Type::kNone || channels_[i].done == n) continue;
+      if (!decode_buffered(channels_[i], sinks[i], n)) pending = true;
+    }
   }
   records_read_ += n;
   return n;

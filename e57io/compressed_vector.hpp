@@ -77,7 +77,9 @@ class CompressedVectorReader {
   struct Packet;
   const Packet& packet_at(std::uint64_t logical);
   void refill(Channel& c);
-  void decode(Channel& c, const Sink& sink, std::size_t n);
+  // Decodes the values of channel c already buffered (refilling first if it holds less than
+  // one), up to n in all for this read(); true when all n are done.
+  bool decode_buffered(Channel& c, const Sink& sink, std::size_t n);
 
   PagedReader& file_;
   std::string element_;
