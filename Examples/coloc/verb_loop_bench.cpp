@@ -35,6 +35,7 @@ struct LoopBenchArgs {
 struct ModeResult {
   std::vector<double> ate_mm, online_mm, correction_ms;
   int loops = 0, false_loops = 0, rejected = 0, implausible = 0, look_alike = 0, lost = 0;
+  int shifted = 0;  // verified poses the current-pose hypothesis moved (a repeating texture)
   double worst_free_space = 0.0;  // the largest free-space violation of a closed loop
   double worst_loop_m = 0.0, worst_loop_deg = 0.0;
 };
@@ -46,6 +47,7 @@ void add_run(ModeResult& m, const slam::pipeline::RunResult& r, const Trajectory
   m.rejected += loop.rejected;
   m.implausible += loop.rejected_aliasing;
   m.look_alike += loop.rejected_look_alike;
+  m.shifted += loop.shifted_by_current_pose;
   m.lost += static_cast<int>(r.summary.lost);
   for (const auto& l : loop.loops) {
     ++m.loops;
@@ -72,6 +74,7 @@ Json mode_json(const ModeResult& m) {
               {"rejected", m.rejected},
               {"rejected_implausible", m.implausible},
               {"rejected_look_alike", m.look_alike},
+              {"shifted_by_current_pose", m.shifted},
               {"worst_free_space_violation", m.worst_free_space},
               {"correction_ms", m.correction_ms},
               {"worst_loop_error_m", m.worst_loop_m},
@@ -85,10 +88,11 @@ void print_mode(const char* name, const ModeResult& m) {
   std::printf(
       "  %-4s ATE mm: median %.2f, mean %.2f, min %.2f, max %.2f (as tracked: median %.2f) | "
       "loops %d (false %d, worst %.3f m / %.2f deg, depth in free space %.1f %%), rejected %d (%d "
-      "implausible, %d by depth), correction ms median %.1f max %.1f | lost frames %d\n",
+      "implausible, %d by depth), %d shifted to the current pose, correction ms median %.1f max "
+      "%.1f | lost frames %d\n",
       name, ate.median, ate.mean, ate.min, ate.max, online.median, m.loops, m.false_loops,
       m.worst_loop_m, m.worst_loop_deg, 100.0 * m.worst_free_space, m.rejected, m.implausible,
-      m.look_alike, corr.median, corr.max, m.lost);
+      m.look_alike, m.shifted, corr.median, corr.max, m.lost);
 }
 
 void run_loop_bench(const LoopBenchArgs& args) {

@@ -116,19 +116,20 @@ bool LoopCloser::try_close(KeyframeId current, const Detection& detection) {
       if (!v.accepted) ++stats_.rejected;
       if (v.implausible) ++stats_.rejected_aliasing;
       if (v.look_alike) ++stats_.rejected_look_alike;
+      if (v.hypothesis_moved_m > options_.max_drift_m) ++stats_.shifted_by_current_pose;
     }
     if (!v.accepted) {
       // Rejections are routine (the summary counts them); each one's figures are for debugging.
       spdlog::debug(
           "loop rejected: keyframe {} -> {}: {} (score {:.3f}, min {:.3f}, consistency {}, bow "
-          "{}, ransac {}, inliers {}, correction {:.3f} m / {:.3f} rad, allowed {:.3f} m / "
-          "{:.3f} rad over {:.2f} m, depth: {} agree, {} in free space, worst pair {:.2f} %, "
-          "{:.1f} "
-          "ms)",
+          "{}, ransac {}, inliers {}, at the current pose {} (moved {:.3f} m), correction "
+          "{:.3f} m / {:.3f} rad, allowed {:.3f} m / {:.3f} rad over {:.2f} m, depth: {} agree, "
+          "{} in free space, worst pair {:.2f} %, {:.1f} ms)",
           current.value(), c.keyframe.value(), v.rejection, c.score, detection.min_score,
-          c.consistency, v.bow_matches, v.ransac_inliers, v.inliers, v.correction_m,
-          v.correction_rad, v.allowed_m, v.allowed_rad, v.path_m, v.free_space.agree,
-          v.free_space.violate, 100.0 * v.free_space.worst_pair, v.free_space_ms);
+          c.consistency, v.bow_matches, v.ransac_inliers, v.inliers, v.current_pose_inliers,
+          v.hypothesis_moved_m, v.correction_m, v.correction_rad, v.allowed_m, v.allowed_rad,
+          v.path_m, v.free_space.agree, v.free_space.violate, 100.0 * v.free_space.worst_pair,
+          v.free_space_ms);
       continue;
     }
     correct(v, c);
@@ -170,6 +171,8 @@ void LoopCloser::correct(const LoopVerification& v, const LoopCandidate& c) {
   r.bow_matches = v.bow_matches;
   r.ransac_inliers = v.ransac_inliers;
   r.inliers = v.inliers;
+  r.current_pose_inliers = v.current_pose_inliers;
+  r.hypothesis_moved_m = v.hypothesis_moved_m;
   r.path_m = v.path_m;
   r.correction_m = v.correction_m;
   r.correction_rad = v.correction_rad;
@@ -178,15 +181,15 @@ void LoopCloser::correct(const LoopVerification& v, const LoopCandidate& c) {
   r.ms = watch.elapsed_ms();
   spdlog::info(
       "loop closed: keyframe {} -> {} (score {:.3f}, consistency {}, bow {}, ransac {}, inliers "
-      "{}, correction {:.3f} m / {:.4f} rad over {:.2f} m of path, depth {} agree / {} in free "
-      "space (worst pair {:.2f} %), {} neighbours moved, {} replaced, {} fused, {} loop "
-      "connections, essential graph "
-      "{} keyframes / {} edges, {:.1f} ms)",
+      "{}, at the current pose {} (moved {:.3f} m), correction {:.3f} m / {:.4f} rad over "
+      "{:.2f} m of path, depth {} agree / {} in free space (worst pair {:.2f} %), {} "
+      "neighbours moved, {} replaced, {} fused, {} loop connections, essential graph {} "
+      "keyframes / {} edges, {:.1f} ms)",
       r.current.value(), r.candidate.value(), r.score, r.consistency, r.bow_matches,
-      r.ransac_inliers, r.inliers, r.correction_m, r.correction_rad, r.path_m, r.free_space.agree,
-      r.free_space.violate, 100.0 * r.free_space.worst_pair, report.corrected_neighbours,
-      report.replaced, report.fused, report.loop_connections, report.graph_keyframes,
-      report.graph_edges, r.ms);
+      r.ransac_inliers, r.inliers, r.current_pose_inliers, r.hypothesis_moved_m, r.correction_m,
+      r.correction_rad, r.path_m, r.free_space.agree, r.free_space.violate,
+      100.0 * r.free_space.worst_pair, report.corrected_neighbours, report.replaced, report.fused,
+      report.loop_connections, report.graph_keyframes, report.graph_edges, r.ms);
   {
     std::lock_guard lock(state_mutex_);
     stats_.loops.push_back(r);

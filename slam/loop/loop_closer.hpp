@@ -37,6 +37,8 @@ struct LoopRecord {
   SE3 candidate_from_current;                       // as verified (what the loop asserts)
   double score = 0.0;
   int consistency = 0, bow_matches = 0, ransac_inliers = 0, inliers = 0;
+  int current_pose_inliers = 0;     // LoopVerification::current_pose_inliers
+  double hypothesis_moved_m = 0.0;  // LoopVerification::hypothesis_moved_m
   double path_m = 0.0, correction_m = 0.0, correction_rad = 0.0;
   FreeSpaceCount free_space;
   int fused = 0;
@@ -49,6 +51,9 @@ struct LoopStats {
   int rejected = 0;             // of those, rejected by verification
   int rejected_aliasing = 0;    // of those, by the plausibility (aliasing) test
   int rejected_look_alike = 0;  // of those, by the free-space test
+  // Candidates whose verified pose the current-pose hypothesis moved by more than
+  // LoopOptions::max_drift_m: a repeating texture's other period, caught.
+  int shifted_by_current_pose = 0;
   std::vector<LoopRecord> loops;
   int global_ba_runs = 0, global_ba_aborted = 0;
   std::vector<double> global_ba_ms;

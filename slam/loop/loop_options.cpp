@@ -18,6 +18,8 @@ void LoopOptions::check() const {
     throw Error("LoopOptions.projection_max_distance must be in [0, 256]");
   if (min_inliers < min_ransac_inliers)
     throw Error("LoopOptions.min_inliers must be >= min_ransac_inliers");
+  if (!(current_pose_radius_px > 0.0))
+    throw Error("LoopOptions.current_pose_radius_px must be > 0");
   if (!(max_drift_m >= 0.0)) throw Error("LoopOptions.max_drift_m must be >= 0");
   if (!(max_drift_per_m >= 0.0)) throw Error("LoopOptions.max_drift_per_m must be >= 0");
   if (!(max_rotation_drift >= 0.0)) throw Error("LoopOptions.max_rotation_drift must be >= 0");

@@ -73,6 +73,19 @@ int inlier_count(const frame::Frame& f) {
   return n;
 }
 
+// Projection search of the group's points around `f`'s pose, then the pose refined on them:
+// the inliers, with the outliers dropped from `f`.
+int guided_search(const map::Map& map, const std::vector<KeyframeId>& group, const LoopOptions& o,
+                  double radius_px, frame::Frame& f) {
+  for (KeyframeId k : group)
+    matching::search_keyframe_points(f, *map.keyframe(k), map, radius_px,
+                                     o.projection_max_distance);
+  matching::optimize_frame_pose(f, map);
+  const int inliers = inlier_count(f);
+  matching::drop_outliers(f);
+  return inliers;
+}
+
 // Verified pose against the estimate: is this within the drift odometry can have had?
 void plausibility(const map::Map& map, const map::Keyframe& cur, const LoopOptions& o,
                   LoopVerification& v) {
@@ -193,18 +206,30 @@ LoopVerification verify_loop(const map::Map& map, KeyframeId current, KeyframeId
   std::vector<KeyframeId> group{candidate};
   for (KeyframeId k : map.covisible(candidate, o.group_neighbours))
     group.push_back(k);
-  for (KeyframeId k : group)
-    matching::search_keyframe_points(f, *map.keyframe(k), map, o.projection_radius_px,
-                                     o.projection_max_distance);
-  matching::optimize_frame_pose(f, map);
-  v.inliers = inlier_count(f);
-  matching::drop_outliers(f);
+  v.inliers = guided_search(map, group, o, o.projection_radius_px, f);
   if (v.inliers < o.min_inliers) {
     v.rejection = "too few inliers after the guided search";
     return v;
   }
   v.corrected_cam_from_world = f.cam_from_world;
   v.matches = f.points;
+  if (o.current_pose_hypothesis) {
+    // The same search from the new keyframe's own pose (see LoopOptions).
+    frame::Frame here = cur->frame;
+    here.points.assign(here.size(), MapPointId::invalid());
+    here.outlier.assign(here.size(), 0);
+    // Wide first (the drift since the place was seen), then as narrow as the loop's own search
+    // from the refined pose.
+    guided_search(map, group, o, o.current_pose_radius_px, here);
+    v.current_pose_inliers = guided_search(map, group, o, o.projection_radius_px, here);
+    if (v.current_pose_inliers >= o.min_inliers) {
+      const SE3 between = here.cam_from_world * v.corrected_cam_from_world.inverse();
+      v.hypothesis_moved_m = between.translation().norm();
+      v.inliers = v.current_pose_inliers;
+      v.corrected_cam_from_world = here.cam_from_world;
+      v.matches = here.points;
+    }
+  }
   plausibility(map, *cur, o, v);
   if (!v.accepted || !o.free_space_test || depth_camera == nullptr) return v;
   std::vector<KeyframeId> near_current{current};

@@ -4,10 +4,12 @@
 // candidate's points; SE3 by RANSAC on the 3-D/3-D pairs (keypoint depth in the new keyframe
 // against the candidate's map point; Umeyama on 3 pairs, inliers by stereo-like reprojection
 // chi2); pose refinement; a guided projection search of the candidate group's points; a second
-// refinement. Then the plausibility test: the correction this implies (new keyframe's estimated
-// pose against the verified one) must be within what odometry can have drifted over the path
-// between the two keyframes, or the place is only a look-alike. Last, with a camera and stored
-// depth, the free-space test (free_space.hpp): the depth of the two places must agree.
+// refinement; the same search from the new keyframe's own pose, taken instead when it finds
+// enough of the group (a repeating texture verifies the place shifted by one period). Then the
+// plausibility test: the correction this implies (new keyframe's estimated pose against the
+// verified one) must be within what odometry can have drifted over the path between the two
+// keyframes, or the place is only a look-alike. Last, with a camera and stored depth, the
+// free-space test (free_space.hpp): the depth of the two places must agree.
 //
 // The caller holds the map lock (nothing is written).
 #include <random>
@@ -30,6 +32,10 @@ struct LoopVerification {
   SE3 corrected_cam_from_world;
   std::vector<MapPointId> matches;
   int bow_matches = 0, ransac_inliers = 0, inliers = 0;
+  // The current-pose hypothesis (LoopOptions::current_pose_hypothesis): its inliers (0: not
+  // run), and how far it moved the verified pose when it was taken (0: not taken).
+  int current_pose_inliers = 0;
+  double hypothesis_moved_m = 0.0;
   double path_m = 0.0;                        // path length between the two keyframes
   double correction_m = 0.0;                  // camera centre moved by the correction
   double correction_rad = 0.0;                // rotation of the correction

@@ -75,6 +75,8 @@ constexpr std::array kTunables{
   Tunable{"loop.max_rotation_drift_per_m", [](SystemOptions& o) -> Field { return &o.loop.max_rotation_drift_per_m; }},
   Tunable{"loop.free_space_test", [](SystemOptions& o) -> Field { return &o.loop.free_space_test; }},
   Tunable{"loop.max_free_space_violation", [](SystemOptions& o) -> Field { return &o.loop.max_free_space_violation; }},
+  Tunable{"loop.current_pose_hypothesis", [](SystemOptions& o) -> Field { return &o.loop.current_pose_hypothesis; }},
+  Tunable{"loop.current_pose_radius_px", [](SystemOptions& o) -> Field { return &o.loop.current_pose_radius_px; }},
   Tunable{"loop.global_ba", [](SystemOptions& o) -> Field { return &o.loop.global_ba; }},
   Tunable{"detect_markers", [](SystemOptions& o) -> Field { return &o.detect_markers; }},
 };
