@@ -122,8 +122,8 @@ struct CompressedVectorReader::Packet {
   std::uint64_t last_use = 0;
   std::uint8_t type = 0;
   std::uint32_t length = 0;
-  std::vector<std::uint8_t> bytes;
-  std::vector<std::uint32_t> stream_begin, stream_size;
+  std::vector<std::uint8_t> bytes;  // the bytestream length table (data packets)
+  std::vector<std::uint32_t> stream_begin, stream_size;  // from the packet's start
 };
 
 CompressedVectorReader::CompressedVectorReader(PagedReader& file, const Element& cv)
@@ -222,16 +222,20 @@ const CompressedVectorReader::Packet& CompressedVectorReader::packet_at(std::uin
   p.stream_begin.clear();
   p.stream_size.clear();
   if (p.type == kDataPacket) {
-    p.bytes.resize(p.length);
-    file_.read(logical, p.bytes);
+    // Only the header and the bytestream length table are read here; each channel copies its
+    // slice straight from the file (one copy of the data instead of two).
     if (p.length < 6) throw file_.error_at("data packet too short", logical, element_);
-    const std::uint32_t count = load_le<std::uint16_t>(p.bytes.data() + 4);
+    std::uint8_t count_raw[2];
+    file_.read(logical + 4, count_raw);
+    const std::uint32_t count = load_le<std::uint16_t>(count_raw);
     std::uint32_t pos = 6 + 2 * count;
     if (pos > p.length) {
       throw file_.error_at("data packet header longer than the packet", logical, element_);
     }
+    p.bytes.resize(2 * count);
+    file_.read(logical + 6, p.bytes);
     for (std::uint32_t i = 0; i < count; ++i) {
-      const std::uint32_t n = load_le<std::uint16_t>(p.bytes.data() + 6 + 2 * i);
+      const std::uint32_t n = load_le<std::uint16_t>(p.bytes.data() + 2 * i);
       if (pos + n > p.length) {
         throw file_.error_at("bytestream " + std::to_string(i) + " runs past its data packet",
                              logical, element_);
@@ -262,7 +266,7 @@ void CompressedVectorReader::refill(Channel& c) {
     c.bit -= drop * 8;
     const std::uint32_t n = p.stream_size[index];
     c.buf.resize(c.end + n + kPad);
-    std::memcpy(c.buf.data() + c.end, p.bytes.data() + p.stream_begin[index], n);
+    file_.read(at + p.stream_begin[index], {c.buf.data() + c.end, n});
     c.end += n;
     std::memset(c.buf.data() + c.end, 0, kPad);
     return;

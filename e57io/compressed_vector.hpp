@@ -3,8 +3,10 @@
 // data packets (plus index and empty packets, which are skipped). Each packet carries a slice of
 // every bytestream; stream i holds the bit-packed values of the i-th terminal prototype element
 // and continues across packets. Each stream ("channel") is followed through the packets on its
-// own, so unbalanced writers cost no extra memory; a small packet cache keeps balanced files at
-// one read per packet. Memory: the cache (4 x 64 KiB) plus one packet of bytes per channel.
+// own, so unbalanced writers cost no extra memory. read() lets the channels take turns a packet
+// slice at a time, so on balanced files they walk the packets together: a small cache of packet
+// headers and the file's read window then see each packet once. Memory: one packet slice of
+// bytes per channel, the headers of 4 packets, and the file's 64 KiB window.
 //
 // Internal to e57io (used by PointStream and by the grouping reader). Not thread-safe.
 
