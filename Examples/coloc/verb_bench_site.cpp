@@ -169,7 +169,8 @@ std::vector<Stage> run_site(const SiteBenchArgs& a) {
   keep(stages, std::move(by_markers));
   Stage by_cloud{"register --level pointcloud",
                  measure_verb({"register", "--map", map_db.string(), "--markers", markers.string(),
-                               "--out", cloud_db.string(), "--level", "pointcloud", "--scan", e57},
+                               "--out", cloud_db.string(), "--level", "pointcloud", "--scan", e57,
+                               "--refine-spacing", "1"},
                               true, &j),
                  Json::object()};
   const Json refined = j.value("pointcloud", Json());

@@ -41,6 +41,7 @@ struct RegisterArgs {
   bool gravity = false;
   double voxel = 0.01;
   int threads = 2;
+  double refine_spacing = 0.0;
   int report_keyframes = 4;
   std::string refine_mode = "terms";
   std::string level;  // empty: "markers", or "surface" without --markers
@@ -147,6 +148,7 @@ align::RegisterOptions options_of(const RegisterArgs& a) {
   options.ba.marker_gate_px = a.marker_gate;
   options.ba.marker_weight = a.marker_weight;
   options.refine.threads = a.threads;
+  options.refine.keyframe_spacing_m = a.refine_spacing;
   options.refine.hold_fixed = a.refine_mode == "fixed";
   options.check();
   return options;
@@ -415,6 +417,12 @@ void add_register_verb(CLI::App& app) {
                  "Level pointcloud: accepted keyframes held fixed at their PnP poses (the paper) "
                  "or their scan matches as BA terms")
       ->check(CLI::IsMember({"fixed", "terms"}))
+      ->capture_default_str();
+  cmd.add_option("--refine-spacing", a->refine_spacing,
+                 "Level pointcloud: match only keyframes at least this far (m) from every "
+                 "matched one looking within 20 deg of the same way (0: every keyframe; a site "
+                 "of 1,000+ keyframes: 1)")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd.add_option("--threads", a->threads, "Level pointcloud: keyframes matched in parallel")
       ->check(CLI::Range(1, 64))

@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <exception>
 #include <memory>
 #include <mutex>
 #include <thread>
+#include <unordered_map>
 
 #include "registration/render/renderer.hpp"
 #include "slam/core/error.hpp"
@@ -72,6 +74,10 @@ void RefineOptions::check() const {
   if (!(max_correction_deg > 0.0))
     throw Error("must be positive (degrees)", {.field = "max_correction_deg"});
   if (threads < 1) throw Error("must be >= 1", {.field = "threads"});
+  if (!(keyframe_spacing_m >= 0.0))
+    throw Error("must be >= 0 (metres)", {.field = "keyframe_spacing_m"});
+  if (!(keyframe_spacing_deg >= 0.0 && keyframe_spacing_deg <= 180.0))
+    throw Error("must be in [0, 180] (degrees)", {.field = "keyframe_spacing_deg"});
   if (iterations < 1 || iterations > 5) throw Error("must be in [1, 5]", {.field = "iterations"});
 }
 
@@ -165,6 +171,52 @@ std::vector<KeyframeRefinement> match_keyframes(const slam::map::Map& map,
   return match_views(views, cloud, camera, o, progress);
 }
 
+std::vector<KeyframeId> spaced_keyframes(const slam::map::Map& map, const RefineOptions& o) {
+  std::vector<KeyframeId> ids;
+  for (const auto& [id, kf] : map.keyframes())
+    ids.push_back(id);
+  std::sort(ids.begin(), ids.end());
+  if (o.keyframe_spacing_m <= 0.0) return ids;
+  // Chosen keyframes by grid cell of side keyframe_spacing_m: a keyframe's near ones are in
+  // the 27 cells round its own.
+  const double cell = o.keyframe_spacing_m;
+  const double min_cos = std::cos(o.keyframe_spacing_deg * M_PI / 180.0);
+  const auto key = [cell](const Eigen::Vector3d& p) {
+    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / cell)),
+                           static_cast<int>(std::floor(p.y() / cell)),
+                           static_cast<int>(std::floor(p.z() / cell)));
+  };
+  const auto hash = [](const Eigen::Vector3i& k) {
+    return (static_cast<std::size_t>(k.x()) * 73856093u) ^
+           (static_cast<std::size_t>(k.y()) * 19349663u) ^
+           (static_cast<std::size_t>(k.z()) * 83492791u);
+  };
+  struct Chosen {
+    Eigen::Vector3d centre, axis;
+  };
+  std::unordered_map<Eigen::Vector3i, std::vector<Chosen>, decltype(hash)> grid(16, hash);
+  std::vector<KeyframeId> chosen;
+  for (KeyframeId id : ids) {
+    const slam::map::Keyframe& kf = *map.keyframe(id);
+    const Eigen::Vector3d centre = kf.camera_centre();
+    const Eigen::Vector3d axis = kf.cam_from_world().so3().inverse() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3i k = key(centre);
+    bool covered = false;
+    for (int dx = -1; dx <= 1 && !covered; ++dx)
+      for (int dy = -1; dy <= 1 && !covered; ++dy)
+        for (int dz = -1; dz <= 1 && !covered; ++dz) {
+          const auto it = grid.find(k + Eigen::Vector3i(dx, dy, dz));
+          if (it == grid.end()) continue;
+          for (const Chosen& c : it->second)
+            if ((c.centre - centre).norm() < cell && c.axis.dot(axis) > min_cos) covered = true;
+        }
+    if (covered) continue;
+    grid[k].push_back({centre, axis});
+    chosen.push_back(id);
+  }
+  return chosen;
+}
+
 RefineReport refine_with_point_cloud(slam::map::Map& map, const render::PointCloud& cloud,
                                      const ScanCorners& scan, const Camera& camera,
                                      const std::vector<int>& use_ids, const MarkerBaOptions& ba,
@@ -173,7 +225,8 @@ RefineReport refine_with_point_cloud(slam::map::Map& map, const render::PointClo
   ba.check();
   RefineReport report;
   Stopwatch watch;
-  report.keyframes = match_keyframes(map, cloud, ideal_camera(map, camera), o, progress);
+  report.keyframes =
+      match_keyframes(map, cloud, ideal_camera(map, camera), o, progress, spaced_keyframes(map, o));
   report.ms_match = watch.elapsed_ms();
   std::unordered_set<KeyframeId> fixed;
   std::vector<ScanPointObservation> terms;

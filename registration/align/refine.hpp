@@ -36,6 +36,13 @@ struct RefineOptions {
   double max_correction_m = 0.25;
   double max_correction_deg = 3.0;
   int threads = 2;
+  // Keyframes matched: every one (0), or only those at least `keyframe_spacing_m` from every
+  // keyframe chosen before them (in id order) that looks within `keyframe_spacing_deg` of the
+  // same way. A survey walk's keyframes are ~0.3 m apart and see mostly the same scan; at a
+  // site's 1,456 keyframes matching all of them costs ~20 min on 2 cores, while the BA needs
+  // the scan's pull spread over the map, not repeated in each place.
+  double keyframe_spacing_m = 0.0;
+  double keyframe_spacing_deg = 20.0;
   // Render-match-PnP passes per keyframe; each later pass renders at the previous PnP pose.
   int iterations = 2;
   bool bundle_adjust = true;  // false: only set the accepted poses
@@ -98,6 +105,9 @@ std::vector<KeyframeRefinement> match_views(const std::vector<MatchView>& views,
                                             const PinholeCamera& camera,
                                             const RefineOptions& options = {},
                                             const RefineProgress& progress = {});
+
+// The keyframes to match under `options`' spacing (all, by id, when keyframe_spacing_m is 0).
+std::vector<KeyframeId> spaced_keyframes(const slam::map::Map& map, const RefineOptions& options);
 
 // Matches every keyframe (or those in `only`, when not empty) against `cloud`; the map is not
 // changed. Throws coloc::Error for invalid options, an empty map or cloud.

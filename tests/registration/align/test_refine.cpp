@@ -185,6 +185,42 @@ TEST(Refine, WeakOrImpossibleMatchesAreNamedAndNotAccepted) {
     EXPECT_FALSE(k.accepted);
 }
 
+// A walk of 5 m along a wall and back, both ways looking at it, then the same walk turned
+// round: 1 m spacing keeps a keyframe a metre along each heading, and none of the walk back.
+TEST(Refine, SpacingKeepsAKeyframeAMetreApartPerHeading) {
+  slam::map::Map map;
+  const auto add = [&map](double x, double yaw) {
+    slam::map::Keyframe kf;
+    kf.id = map.next_keyframe_id();
+    const SE3 world_from_cam(SO3::exp(Eigen::Vector3d(0.0, yaw, 0.0)), Eigen::Vector3d(x, 0, 0));
+    kf.frame.cam_from_world = world_from_cam.inverse();
+    kf.frame.has_pose = true;
+    return map.add_keyframe(std::move(kf)).id;
+  };
+  std::vector<KeyframeId> expected;
+  for (int i = 0; i < 20; ++i) {
+    const KeyframeId id = add(0.25 * i, 0.0);
+    if (i % 4 == 0) expected.push_back(id);  // x = 0, 1, 2, 3, 4
+  }
+  for (int i = 19; i >= 0; --i)
+    add(0.25 * i + 0.1, 0.05);  // the way back, the same heading within 3 deg: covered
+  for (int i = 0; i < 20; ++i) {
+    const KeyframeId id = add(0.25 * i, std::numbers::pi);
+    if (i % 4 == 0) expected.push_back(id);
+  }
+  RefineOptions o;
+  EXPECT_EQ(spaced_keyframes(map, o).size(), 60u);  // spacing 0: every keyframe
+  o.keyframe_spacing_m = 1.0;
+  EXPECT_EQ(spaced_keyframes(map, o), expected);
+  o.keyframe_spacing_m = -1.0;
+  try {
+    o.check();
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().field, "keyframe_spacing_m");
+  }
+}
+
 TEST(Refine, NamedErrors) {
   slam::map::Map map = keyframes_map(shared_room(), {SE3()});
   RefineOptions o;
