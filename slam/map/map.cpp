@@ -394,8 +394,7 @@ void Map::check_restored_observations() const {
       const MapPointId pid = kf.frame.points[i];
       if (!pid.valid()) continue;
       const MapPoint* p = point(pid);
-      const auto o =
-          p ? p->observations.find(k) : std::map<KeyframeId, std::uint32_t>::const_iterator{};
+      const auto o = p ? p->observations.find(k) : Observations::const_iterator{};
       if (!p || o == p->observations.end() || o->second != i)
         throw Error("Map::restore: keyframe " + id_text(k.value()) + " keypoint " + id_text(i) +
                     " holds point " + id_text(pid.value()) + " without its observation");

@@ -22,6 +22,7 @@
 #include "slam/frame/frame.hpp"
 #include "slam/map/inertial.hpp"
 #include "slam/map/keyframe_depth.hpp"
+#include "slam/map/observations.hpp"
 
 namespace coloc::slam::map {
 
@@ -60,9 +61,9 @@ struct MapPoint {
   double min_distance = 0.0, max_distance = 0.0;       // scale-invariance range (metres)
   KeyframeId reference;                                // keyframe that created it
   KeyframeId first_keyframe;
-  std::map<KeyframeId, std::uint32_t> observations;  // keyframe -> keypoint index
-  int visible = 1;                                   // frames whose frustum contained it
-  int found = 1;                                     // frames that matched it
+  Observations observations;  // keyframe -> keypoint index, ascending keyframe id
+  int visible = 1;            // frames whose frustum contained it
+  int found = 1;              // frames that matched it
   double found_ratio() const { return static_cast<double>(found) / std::max(visible, 1); }
   // Predicted pyramid level at a distance (metres).
   int predict_level(double distance, const frame::FrameGeometry& g) const;

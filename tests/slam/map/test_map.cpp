@@ -115,5 +115,33 @@ TEST(Map, PointStatisticsFollowObservations) {
   EXPECT_EQ(p.descriptor, map.keyframe(a)->frame.features.descriptors[2]);
 }
 
+// The flat observation list behaves as the std::map it replaced: keyed, unique, ascending.
+TEST(Map, ObservationsAreSortedByKeyframeAndUnique) {
+  Observations o;
+  for (std::uint64_t k : {7u, 3u, 11u, 5u})
+    EXPECT_TRUE(o.emplace(KeyframeId(k), static_cast<std::uint32_t>(k * 10)).second);
+  EXPECT_FALSE(o.emplace(KeyframeId(5), 99).second);  // kept the first, as std::map
+  EXPECT_EQ(o.at(KeyframeId(5)), 50u);
+  o[KeyframeId(9)] = 90;
+  o[KeyframeId(3)] = 31;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> seen;
+  for (const auto& [k, idx] : o)
+    seen.emplace_back(k.value(), idx);
+  const std::vector<std::pair<std::uint64_t, std::uint32_t>> expected{
+      {3, 31}, {5, 50}, {7, 70}, {9, 90}, {11, 110}};
+  EXPECT_EQ(seen, expected);
+  EXPECT_EQ(o.count(KeyframeId(4)), 0u);
+  EXPECT_EQ(o.find(KeyframeId(4)), o.end());
+  EXPECT_THROW(o.at(KeyframeId(4)), std::out_of_range);
+  o.erase(o.find(KeyframeId(3)));
+  EXPECT_EQ(o.erase(KeyframeId(9)), 1u);
+  EXPECT_EQ(o.erase(KeyframeId(9)), 0u);
+  ASSERT_EQ(o.size(), 3u);
+  EXPECT_EQ(o.begin()->first, KeyframeId(5));
+  Observations copy = o;
+  copy.shrink_to_fit();
+  EXPECT_EQ(copy, o);
+}
+
 }  // namespace
 }  // namespace coloc::slam::map
