@@ -43,6 +43,31 @@ void BowDatabase::add(ImageKey image, const BowVector& bow) {
     inverse_[e.word].push_back({slot, e.weight});
 }
 
+void BowDatabase::reserve(const std::vector<const BowVector*>& images) {
+  // Every word of every image, sorted: the runs are the postings each word gains (one array,
+  // where a count per word would be one small allocation per word).
+  std::vector<WordId> all;
+  std::size_t total = 0;
+  for (const BowVector* bow : images)
+    total += bow->entries.size();
+  all.reserve(total);
+  for (const BowVector* bow : images)
+    for (const auto& e : bow->entries)
+      all.push_back(e.word);
+  std::sort(all.begin(), all.end());
+  for (std::size_t i = 0; i < all.size();) {
+    std::size_t j = i;
+    while (j < all.size() && all[j] == all[i])
+      ++j;
+    std::vector<Posting>& postings = inverse_[all[i]];
+    postings.reserve(postings.size() + (j - i));
+    i = j;
+  }
+  key_of_.reserve(key_of_.size() + images.size());
+  words_.reserve(words_.size() + images.size());
+  slot_of_.reserve(slot_of_.size() + images.size());
+}
+
 bool BowDatabase::erase(ImageKey image) {
   const auto it = slot_of_.find(image);
   if (it == slot_of_.end()) return false;

@@ -53,6 +53,11 @@ class BowDatabase {
   bool contains(ImageKey image) const { return slot_of_.count(image) > 0; }
   std::size_t size() const { return slot_of_.size(); }
   void clear();
+  // Room for the postings of images about to be added (a bulk load: slam/mapdb adds every
+  // keyframe of a map): each word's postings get their final capacity at once. Grown by
+  // doubling, a quarter of it went unused on average, and the outgrown arrays stayed behind as
+  // free holes in the heap (some 7 MB each at a site map of 1,456 keyframes).
+  void reserve(const std::vector<const BowVector*>& images);
 
   // Best images first (by group score, then score, then key). At most options.max_results.
   std::vector<QueryResult> query(const BowVector& bow, const QueryOptions& options = {}) const;

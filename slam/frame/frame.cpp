@@ -139,9 +139,18 @@ Eigen::Vector3d Frame::unproject_world(std::size_t i) const {
   return cam_from_world.inverse() * p;
 }
 
+void Frame::drop_search_data() {
+  // Swapped with empty vectors: `v = {}` would assign an empty list and keep the capacity.
+  std::vector<float>().swap(depth);
+  std::vector<float>().swap(u_right);
+  std::vector<std::uint32_t>().swap(grid_start_);
+  std::vector<std::uint32_t>().swap(grid_keypoint_);
+}
+
 std::vector<std::size_t> Frame::features_in_area(double x, double y, double radius, int min_level,
                                                  int max_level) const {
   std::vector<std::size_t> out;
+  if (grid_start_.empty()) return out;  // drop_search_data()
   const FrameGeometry& g = *geometry_;
   const double sx = g.grid_cols / (g.max_x - g.min_x), sy = g.grid_rows / (g.max_y - g.min_y);
   const int c0 = std::max(0, static_cast<int>(std::floor((x - radius - g.min_x) * sx)));

@@ -104,6 +104,12 @@ class Frame {
   std::vector<std::size_t> features_in_area(double x, double y, double radius, int min_level = 0,
                                             int max_level = -1) const;
   std::size_t tracked_count() const;  // keypoints with a valid point that are not outliers
+  // Drops what only a search in this frame's image reads: the per-keypoint depth and virtual
+  // right coordinate, and the grid. For a keyframe that is only ever matched by BoW and
+  // through its points (a map loaded for localization, mapdb::LoadOptions::keyframe_search):
+  // ~24 kB a keyframe of 1,000 keypoints. has_depth, is_close, unproject_world and the
+  // rolling-shutter compensation must not be called afterwards; features_in_area finds none.
+  void drop_search_data();
   // Rolling-shutter compensation (slam/frame/rolling_shutter.hpp) with a readout time (seconds)
   // and the camera's angular velocity (rad/s, camera frame): moves the undistorted keypoints,
   // their virtual right coordinates and the grid, and records what it applied (shutter_*; with

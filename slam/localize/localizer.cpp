@@ -1,6 +1,9 @@
 #include "slam/localize/localizer.hpp"
 
 #include <unistd.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include <chrono>
 #include <cmath>
@@ -31,11 +34,19 @@ std::unique_ptr<LocalizationMap> load_localization_map(const std::filesystem::pa
     throw Error("load_localization_map: relocalization needs the BoW database",
                 {.file = path.string(), .field = "LoadOptions.rebuild_bow"});
   // Only what tracking and relocalization read stays resident: the depth images stay in the
-  // file, the keyframes' BoW vectors in the BoW database's index.
+  // file, the keyframes' BoW vectors in the BoW database's index, and no keyframe keeps its
+  // keypoints' depth or its grid (nothing searches in a keyframe's image).
   mapdb::LoadOptions o = options;
   o.keyframe_depth = false;
   o.keyframe_bow = false;
+  o.keyframe_search = false;
   mapdb::LoadedMap loaded = mapdb::load_map(path, vocabulary, o);
+#if defined(__GLIBC__)
+  // What the load dropped (grids, keypoint depth, BoW vectors, SQLite's page cache, decoded
+  // blobs) is free but resident, in holes between the keyframes' arrays and in the BoW threads'
+  // arenas: glibc returns whole free pages only when asked.
+  malloc_trim(0);
+#endif
   if (loaded.map.keyframe_count() == 0)
     throw Error("the map holds no keyframe to localize in",
                 {.file = path.string(), .field = "keyframes"});

@@ -130,6 +130,12 @@ struct LoadOptions {
   // word, some 1,000 words a keyframe. Each keyframe keeps its feature vector, which matching
   // reads, either way.
   bool keyframe_bow = true;
+  // Each keyframe's per-keypoint depth and virtual right coordinate and its keypoint grid
+  // (frame::Frame::drop_search_data): what mapping, loop closing and registration read when
+  // they search in a keyframe's image or weigh its observations. Tracking and relocalization
+  // match a frame against a keyframe by BoW and through the keyframe's points only (keypoint
+  // angles, descriptors, feature vector, points), so a localizer drops them: ~24 kB a keyframe.
+  bool keyframe_search = true;
   ProgressFn progress;
   void check() const;
 };

@@ -231,14 +231,20 @@ TEST(Localizer, MapHoldsOnlyWhatLocalizationReads) {
     EXPECT_TRUE(kf.frame.bow.empty()) << "keyframe " << id.value();
     // Matching by BoW reads the feature vectors: they stay.
     EXPECT_FALSE(kf.frame.feature_vector.entries.empty()) << "keyframe " << id.value();
+    // Nothing searches in a keyframe's image: no keypoint depth, no grid.
+    EXPECT_TRUE(kf.frame.depth.empty() && kf.frame.u_right.empty()) << "keyframe " << id.value();
+    EXPECT_TRUE(kf.frame.grid_starts().empty()) << "keyframe " << id.value();
+    EXPECT_EQ(kf.frame.outlier.size(), kf.frame.size()) << "keyframe " << id.value();
   }
   mapdb::LoadedMap full = mapdb::load_map(fixture().map, test_support::vocabulary());
   std::size_t with_depth = 0;
   full.map.for_each_keyframe([&](map::Keyframe& kf) {
     with_depth += kf.depth.has_value() ? 1 : 0;
     EXPECT_FALSE(kf.frame.bow.empty()) << "keyframe " << kf.id.value();
+    EXPECT_FALSE(kf.frame.grid_starts().empty()) << "keyframe " << kf.id.value();
     kf.depth.reset();
     kf.frame.bow = {};
+    kf.frame.drop_search_data();
   });
   EXPECT_GT(with_depth, 0u);  // the file has depth images: the localizer left them there
   EXPECT_EQ(mapdb::test::map_difference(full.map, light.shared.map), "");

@@ -66,6 +66,9 @@ inline std::string frame_difference(const frame::Frame& a, const frame::Frame& b
   if (a.features.image_width != b.features.image_width ||
       a.features.image_height != b.features.image_height)
     return "image size";
+  // Both empty after frame::Frame::drop_search_data (a map loaded for localization).
+  if (a.depth.size() != b.depth.size() || a.u_right.size() != b.u_right.size())
+    return "depth/u_right count";
   for (std::size_t i = 0; i < a.size(); ++i) {
     const auto& p = a.features.keypoints[i];
     const auto& q = b.features.keypoints[i];
@@ -73,7 +76,8 @@ inline std::string frame_difference(const frame::Frame& a, const frame::Frame& b
         !same_bits(p.uy, q.uy) || !same_bits(p.angle, q.angle) ||
         !same_bits(p.response, q.response) || p.level != q.level)
       return "keypoint " + std::to_string(i);
-    if (!same_bits(a.depth[i], b.depth[i]) || !same_bits(a.u_right[i], b.u_right[i]))
+    if (i < a.depth.size() &&
+        (!same_bits(a.depth[i], b.depth[i]) || !same_bits(a.u_right[i], b.u_right[i])))
       return "depth/u_right " + std::to_string(i);
   }
   if (a.features.descriptors != b.features.descriptors) return "descriptors";
