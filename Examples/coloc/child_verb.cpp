@@ -2,16 +2,21 @@
 
 #include <signal.h>
 #include <spawn.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdio>
+#include <cstdlib>
+#include <string_view>
 
 #include "slam/core/timing.hpp"
 
 namespace coloc::cli {
 namespace {
+
+constexpr std::string_view kParentVariable = "COLOC_PARENT_PID";
 
 // Starts `coloc ARGS...` (this very executable) with `actions` (null: none) on its file
 // descriptors; throws CliFailure when it cannot start.
@@ -23,8 +28,20 @@ pid_t spawn_self(const std::vector<std::string>& args, const posix_spawn_file_ac
   for (auto& a : argv_store)
     argv.push_back(a.data());
   argv.push_back(nullptr);
+  // The child's environment names this process (follow_parent()).
+  std::vector<std::string> env_store;
+  for (char** e = environ; *e != nullptr; ++e)
+    if (std::string_view(*e).substr(0, kParentVariable.size() + 1) !=
+        std::string(kParentVariable) + "=")
+      env_store.emplace_back(*e);
+  env_store.push_back(std::string(kParentVariable) + "=" + std::to_string(getpid()));
+  std::vector<char*> env;
+  env.reserve(env_store.size() + 1);
+  for (auto& e : env_store)
+    env.push_back(e.data());
+  env.push_back(nullptr);
   pid_t pid = 0;
-  if (posix_spawn(&pid, "/proc/self/exe", actions, nullptr, argv.data(), environ) != 0)
+  if (posix_spawn(&pid, "/proc/self/exe", actions, nullptr, argv.data(), env.data()) != 0)
     throw CliFailure("cannot start: " + shown_command(args));
   return pid;
 }
@@ -79,6 +96,15 @@ double seconds(const timeval& t) {
 }
 
 }  // namespace
+
+bool follow_parent() {
+  const char* parent = std::getenv(std::string(kParentVariable).c_str());
+  if (parent == nullptr) return true;
+  // SIGTERM when the thread that started us ends; a parent gone before this call is seen as a
+  // changed parent id (we were re-parented).
+  prctl(PR_SET_PDEATHSIG, SIGTERM);
+  return std::to_string(getppid()) == parent;
+}
 
 std::string shown_command(const std::vector<std::string>& args) {
   std::string shown = "coloc";

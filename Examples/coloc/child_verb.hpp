@@ -13,6 +13,11 @@
 
 namespace coloc::cli {
 
+// A verb started by another coloc (start_verb and friends) ends with it: `coloc bench site`
+// stopped by a signal, a timeout or a crash must not leave a registration running for half an
+// hour. Called first thing in main(); false when the starting process is already gone.
+bool follow_parent();
+
 // "coloc ARG ARG ..." as printed before a step.
 std::string shown_command(const std::vector<std::string>& args);
 

@@ -9,12 +9,14 @@
 #include <iostream>
 #include <string>
 
+#include "Examples/coloc/child_verb.hpp"
 #include "Examples/coloc/cli_common.hpp"
 #include "Examples/coloc/verbs.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/version.hpp"
 
 int main(int argc, char** argv) {
+  if (!coloc::cli::follow_parent()) return 1;
   // Logs go to stderr so stdout stays machine-readable.
   spdlog::set_default_logger(spdlog::stderr_color_mt("coloc"));
   spdlog::set_pattern("[%H:%M:%S.%e] [%^%l%$] %v");
