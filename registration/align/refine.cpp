@@ -7,7 +7,6 @@
 #include <memory>
 #include <mutex>
 #include <thread>
-#include <unordered_map>
 
 #include "registration/render/renderer.hpp"
 #include "slam/core/error.hpp"
@@ -177,41 +176,23 @@ std::vector<KeyframeId> spaced_keyframes(const slam::map::Map& map, const Refine
     ids.push_back(id);
   std::sort(ids.begin(), ids.end());
   if (o.keyframe_spacing_m <= 0.0) return ids;
-  // Chosen keyframes by grid cell of side keyframe_spacing_m: a keyframe's near ones are in
-  // the 27 cells round its own.
-  const double cell = o.keyframe_spacing_m;
+  // A plain scan of the chosen ones: a site's 1,462 keyframes keep ~500, under a million
+  // distance checks, far below one keyframe's matching.
   const double min_cos = std::cos(o.keyframe_spacing_deg * M_PI / 180.0);
-  const auto key = [cell](const Eigen::Vector3d& p) {
-    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / cell)),
-                           static_cast<int>(std::floor(p.y() / cell)),
-                           static_cast<int>(std::floor(p.z() / cell)));
-  };
-  const auto hash = [](const Eigen::Vector3i& k) {
-    return (static_cast<std::size_t>(k.x()) * 73856093u) ^
-           (static_cast<std::size_t>(k.y()) * 19349663u) ^
-           (static_cast<std::size_t>(k.z()) * 83492791u);
-  };
   struct Chosen {
     Eigen::Vector3d centre, axis;
   };
-  std::unordered_map<Eigen::Vector3i, std::vector<Chosen>, decltype(hash)> grid(16, hash);
+  std::vector<Chosen> kept;
   std::vector<KeyframeId> chosen;
   for (KeyframeId id : ids) {
     const slam::map::Keyframe& kf = *map.keyframe(id);
     const Eigen::Vector3d centre = kf.camera_centre();
     const Eigen::Vector3d axis = kf.cam_from_world().so3().inverse() * Eigen::Vector3d::UnitZ();
-    const Eigen::Vector3i k = key(centre);
-    bool covered = false;
-    for (int dx = -1; dx <= 1 && !covered; ++dx)
-      for (int dy = -1; dy <= 1 && !covered; ++dy)
-        for (int dz = -1; dz <= 1 && !covered; ++dz) {
-          const auto it = grid.find(k + Eigen::Vector3i(dx, dy, dz));
-          if (it == grid.end()) continue;
-          for (const Chosen& c : it->second)
-            if ((c.centre - centre).norm() < cell && c.axis.dot(axis) > min_cos) covered = true;
-        }
+    const bool covered = std::any_of(kept.begin(), kept.end(), [&](const Chosen& c) {
+      return (c.centre - centre).norm() < o.keyframe_spacing_m && c.axis.dot(axis) > min_cos;
+    });
     if (covered) continue;
-    grid[k].push_back({centre, axis});
+    kept.push_back({centre, axis});
     chosen.push_back(id);
   }
   return chosen;
