@@ -29,12 +29,11 @@ pid_t spawn_self(const std::vector<std::string>& args, const posix_spawn_file_ac
     argv.push_back(a.data());
   argv.push_back(nullptr);
   // The child's environment names this process (follow_parent()).
+  const std::string prefix = std::string(kParentVariable) + "=";
   std::vector<std::string> env_store;
   for (char** e = environ; *e != nullptr; ++e)
-    if (std::string_view(*e).substr(0, kParentVariable.size() + 1) !=
-        std::string(kParentVariable) + "=")
-      env_store.emplace_back(*e);
-  env_store.push_back(std::string(kParentVariable) + "=" + std::to_string(getpid()));
+    if (!std::string_view(*e).starts_with(prefix)) env_store.emplace_back(*e);
+  env_store.push_back(prefix + std::to_string(getpid()));
   std::vector<char*> env;
   env.reserve(env_store.size() + 1);
   for (auto& e : env_store)
