@@ -52,6 +52,7 @@ struct MapArgs {
   bool no_global_ba = false;
   bool no_loop = false;
   bool no_imu = false;
+  bool no_extract_ahead = false;
   bool json = false;
   int runs = 1;
   ViewArgs view;  // --view: live in the browser
@@ -215,6 +216,7 @@ void run_map(const MapArgs& given) {
   slam::pipeline::RunOptions run{.sequential = args.sequential,
                                  .realtime = args.realtime,
                                  .concurrent = args.concurrent,
+                                 .extract_ahead = args.no_extract_ahead ? 0U : 1U,
                                  .global_ba = !args.no_global_ba,
                                  .loop = !args.no_loop,
                                  .imu = !args.no_imu,
@@ -249,23 +251,23 @@ void run_bench(const MapArgs& args) {
   const MapInputs in = load_inputs(args);
   const auto& [config, settings, sequence] = in.slam;
   const auto& vocabulary = in.vocabulary;
-  const slam::pipeline::RunOptions mode{
-      .sequential = args.sequential, .realtime = args.realtime, .concurrent = args.concurrent};
+  const slam::pipeline::RunOptions options{.sequential = args.sequential,
+                                           .realtime = args.realtime,
+                                           .concurrent = args.concurrent,
+                                           .extract_ahead = args.no_extract_ahead ? 0U : 1U,
+                                           .loop = !args.no_loop,
+                                           .imu = !args.no_imu,
+                                           .compare_imu = true};
   std::printf("sequence %s (%zu frames), settings %s, %s\n", args.sequence.string().c_str(),
-              sequence->size(), config.string().c_str(), slam::pipeline::pacing_name(mode));
+              sequence->size(), config.string().c_str(), slam::pipeline::pacing_name(options));
   std::printf("%4s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %7s %5s %4s %8s %8s %5s %8s %8s\n",
               "run", "extr_med", "extr_p99", "pose_med", "pose_p99", "lmap_med", "lmap_p99",
               "kf_med", "kf_p99", "total_med", "total_p99", "ba_med", "lost", "kfs", "ate_mm",
               "gba_mm", "loops", "vis_mm", "grav_mm");
   std::vector<double> ate_online, ate_final, ate_vision, ate_gravity;
   for (int run = 0; run < args.runs; ++run) {
-    const slam::pipeline::RunResult r = slam::pipeline::run_slam(*sequence, settings, vocabulary,
-                                                                 {.sequential = args.sequential,
-                                                                  .realtime = args.realtime,
-                                                                  .concurrent = args.concurrent,
-                                                                  .loop = !args.no_loop,
-                                                                  .imu = !args.no_imu,
-                                                                  .compare_imu = true});
+    const slam::pipeline::RunResult r =
+        slam::pipeline::run_slam(*sequence, settings, vocabulary, options);
     if (r.ate_online) ate_online.push_back(1e3 * r.ate_online->translation.rmse);
     if (r.ate) ate_final.push_back(1e3 * r.ate->translation.rmse);
     if (r.ate_vision) ate_vision.push_back(1e3 * r.ate_vision->translation.rmse);
@@ -345,6 +347,9 @@ void add_map_verb(CLI::App& app, CLI::App& bench) {
   map->add_flag("--no-global-ba", args->no_global_ba,
                 "Skip the global bundle adjustment of the finished map");
   map->add_flag("--no-loop", args->no_loop, "No loop closing");
+  map->add_flag("--no-extract-ahead", args->no_extract_ahead,
+                "Extract each frame's features on the tracking thread (one core) instead of "
+                "ahead on a thread of their own");
   map->add_flag("--no-imu", args->no_imu,
                 "The global BA ignores the sequence's IMU log (see IMU.T_b_c1)");
   map->add_flag("--json", args->json, "Machine-readable summary");
@@ -368,6 +373,8 @@ void add_map_verb(CLI::App& app, CLI::App& bench) {
                  "Frames back to back, tracking never waiting for the mapper")
       ->excludes(track_realtime);
   track->add_flag("--no-loop", args->no_loop, "No loop closing");
+  track->add_flag("--no-extract-ahead", args->no_extract_ahead,
+                  "Extract features on the tracking thread");
   track->add_flag("--no-imu", args->no_imu,
                   "The global BA ignores the sequence's IMU log (see IMU.T_b_c1)");
   track->callback([args] { run_bench(*args); });

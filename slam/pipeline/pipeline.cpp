@@ -7,6 +7,7 @@
 #include "slam/core/error.hpp"
 #include "slam/core/progress.hpp"
 #include "slam/core/row_progress.hpp"
+#include "slam/pipeline/extract_ahead.hpp"
 
 namespace coloc::slam::pipeline {
 namespace {
@@ -50,6 +51,8 @@ RunResult run_slam(const dataset::Sequence& sequence, const settings::Settings& 
   if (run.realtime) frames = dataset::paced(std::move(frames));
   RunOptions options = run;
   options.source_waits = !run.realtime;
+  // A recording waits: tracking takes the frames extracted during a local BA in a burst.
+  if (options.source_waits && options.extract_ahead > 0) options.extract_ahead = 8;
   if (options.source_waits && !run.concurrent) options.sequential = true;
   return run_slam(*frames, &sequence, settings, vocabulary, options, finished);
 }
@@ -80,11 +83,25 @@ RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
   Progress progress("slam", frames.remaining(), !run.progress);
   RunResult r;
   std::size_t tracked = 0, unusable = 0;
-  while (auto frame = frames.next()) {
+  // Off (0): extraction on the tracking thread, the frames taken straight from the source.
+  std::optional<ExtractAhead> ahead;
+  if (run.extract_ahead > 0)
+    ahead.emplace(frames, slam.feature_extraction(), settings.rgb_order, run.extract_ahead);
+  auto next = [&]() -> std::optional<ExtractedFrame> {
+    if (ahead) return ahead->next();
+    auto frame = frames.next();
+    if (!frame) return std::nullopt;
+    frame->color = dataset::to_camera_order(frame->color, settings.rgb_order);
+    return ExtractedFrame{std::move(*frame), std::nullopt};
+  };
+  while (auto item = next()) {
     progress.advance();
+    const dataset::Frame* frame = &item->frame;
     try {
-      slam.track(dataset::to_camera_order(frame->color, settings.rgb_order), frame->depth,
-                 frame->timestamp);
+      if (item->features)
+        slam.track(frame->color, frame->depth, frame->timestamp, std::move(*item->features));
+      else
+        slam.track(frame->color, frame->depth, frame->timestamp);
       ++tracked;
     } catch (const Error& e) {
       // Images that do not fit the camera (wrong size, depth of another size) cost one frame,
@@ -95,6 +112,7 @@ RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
     }
   }
   progress.finish();
+  ahead.reset();  // its thread reads `frames`'s counts no more
   r.skipped_frames = frames.skipped() + unusable;
   r.late_frames = frames.late();
   if (tracked == 0)

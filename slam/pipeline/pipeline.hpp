@@ -34,6 +34,11 @@ struct RunOptions {
   // (TrackingOptions::readout_settle_keyframes). Set by the sequence overload of run_slam; a
   // live camera cannot wait.
   bool source_waits = false;
+  // Frames whose features are extracted ahead of tracking on a thread of their own
+  // (pipeline/extract_ahead.hpp): 1 for a live camera (or frames paced as one), 8 for a
+  // recording that can wait (the sequence overload of run_slam sets it); 0 extracts on the
+  // tracking thread. The map is the same either way; only the wall time differs.
+  std::size_t extract_ahead = 1;
   bool global_ba = true;  // of the finished map
   bool loop = true;       // loop closing
   // The global BA ties the tilt to gravity and the keyframes' relative rotations to the gyro

@@ -61,7 +61,11 @@ std::string SystemSummary::describe() const {
     << keyframe_decisions.deferred << " frames, refused for a busy mapper "
     << keyframe_decisions.refused_busy << "\n"
     << "tracking ms/frame: median " << total_ms.median << ", p99 " << total_ms.p99
-    << " (extraction median " << extract_ms.median << ")\n";
+    << " (extraction median " << extract_ms.median
+    << (extracted_ahead > 0
+            ? fmt::format(", {} frames extracted ahead on a thread of their own", extracted_ahead)
+            : std::string())
+    << ")\n";
   const SampleStats ba = summarize(mapping.ba_ms);
   s << "local BA: " << mapping.ba_runs << " runs (" << mapping.ba_aborted << " aborted), ms median "
     << ba.median << ", p99 " << ba.p99 << "; keyframes culled " << mapping.keyframes_culled
@@ -243,6 +247,26 @@ System::System(const settings::Settings& settings, const bow::Vocabulary& vocabu
 
 tracking::TrackingResult System::track(const cv::Mat& image, const cv::Mat& depth,
                                        double timestamp) {
+  check_image(image, depth);
+  auto r = tracker_->track(image, depth, timestamp);
+  account(image, r, timestamp);
+  return r;
+}
+
+tracking::TrackingResult System::track(const cv::Mat& image, const cv::Mat& depth, double timestamp,
+                                       tracking::ImageFeatures extracted) {
+  check_image(image, depth);
+  auto r = tracker_->track(image, depth, timestamp, std::move(extracted));
+  ++extracted_ahead_;
+  account(image, r, timestamp);
+  return r;
+}
+
+tracking::FeatureExtraction System::feature_extraction() const {
+  return {extractor_, settings_.camera, options_.tracking.rgb_input};
+}
+
+void System::check_image(const cv::Mat& image, const cv::Mat& depth) {
   if (image.empty()) throw Error("System::track: empty image");
   if (!tracker_) start_tracking(image.cols, image.rows);
   if (image.cols != image_width(settings_.camera) || image.rows != image_height(settings_.camera))
@@ -256,7 +280,9 @@ tracking::TrackingResult System::track(const cv::Mat& image, const cv::Mat& dept
                 std::to_string(depth.rows) + ", the colour image " + std::to_string(image.cols) +
                 "x" + std::to_string(image.rows));
   }
-  auto r = tracker_->track(image, depth, timestamp);
+}
+
+void System::account(const cv::Mat& image, const tracking::TrackingResult& r, double timestamp) {
   extract_ms_.push_back(r.extract_ms);
   track_ms_.push_back(r.track_ms);
   pose_ms_.push_back(r.pose_ms);
@@ -266,7 +292,6 @@ tracking::TrackingResult System::track(const cv::Mat& image, const cv::Mat& dept
   decisions_.deferred += r.keyframe_deferred ? 1 : 0;
   decisions_.refused_busy += r.keyframe_refused_busy ? 1 : 0;
   if (observer_ != nullptr && observer_->wants_frame(timestamp)) notify(image, r, timestamp);
-  return r;
 }
 
 void System::notify(const cv::Mat& image, const tracking::TrackingResult& r, double timestamp) {
@@ -337,6 +362,7 @@ SystemSummary System::summary() const {
   s.extract_ms = summarize(extract_ms_);
   s.track_ms = summarize(track_ms_);
   s.total_ms = summarize(total);
+  s.extracted_ahead = extracted_ahead_;
   s.pose_ms = summarize(pose_ms_);
   s.local_map_ms = summarize(local_map_ms_);
   s.keyframe_ms = summarize(keyframe_ms_);

@@ -45,8 +45,11 @@ struct SystemSummary {
   // Camera.readoutTime); empty when the settings give it.
   std::optional<double> estimated_readout;
   mapping::MappingStats mapping;
-  loop::LoopStats loop;                            // empty when loop closing is off
-  SampleStats extract_ms, track_ms, total_ms;      // per frame, tracking thread
+  loop::LoopStats loop;  // empty when loop closing is off
+  // Per frame: extraction (on the tracking thread, or ahead on one of its own for
+  // `extracted_ahead` frames), the rest of tracking, and both.
+  SampleStats extract_ms, track_ms, total_ms;
+  std::size_t extracted_ahead = 0;
   SampleStats pose_ms, local_map_ms, keyframe_ms;  // stages of track_ms
   KeyframeDecisions keyframe_decisions;
   std::string describe() const;
@@ -73,6 +76,13 @@ class System {
   // `image` 8-bit grey, or colour in the settings' Camera.RGB order; `depth` CV_32FC1 metres
   // (0 = invalid); timestamp in seconds.
   tracking::TrackingResult track(const cv::Mat& image, const cv::Mat& depth, double timestamp);
+  // The same with the image's features extracted beforehand by a feature_extraction() (on
+  // another thread: slam/pipeline/extract_ahead.hpp); the map is the same either way.
+  tracking::TrackingResult track(const cv::Mat& image, const cv::Mat& depth, double timestamp,
+                                 tracking::ImageFeatures extracted);
+  // The extraction track() runs (the settings' ORB options, camera and colour order), for
+  // another thread; one per thread.
+  tracking::FeatureExtraction feature_extraction() const;
   // Stops local mapping (aborting a running BA) and joins its thread, then loop closing
   // (aborting a global BA running in the background). Idempotent.
   void shutdown();
@@ -109,6 +119,10 @@ class System {
  private:
   // Builds the frame geometry and the tracker for images of this size.
   void start_tracking(int width, int height);
+  // Starts tracking at the first image and checks the image against the settings' size.
+  void check_image(const cv::Mat& image, const cv::Mat& depth);
+  // Keeps the frame's timings and keyframe decision, and shows the observer the frame.
+  void account(const cv::Mat& image, const tracking::TrackingResult& r, double timestamp);
 
   mapdb::MapMetadata metadata() const;
   // Hands the observer this frame's snapshot (tracking thread).
@@ -132,6 +146,7 @@ class System {
   FrameObserver* observer_ = nullptr;
   std::vector<double> extract_ms_, track_ms_, pose_ms_, local_map_ms_, keyframe_ms_;
   KeyframeDecisions decisions_;
+  std::size_t extracted_ahead_ = 0;  // frames tracked with features extracted beforehand
 };
 
 // A new System, or (with `load_map`) one continuing that saved map; progress of the load on

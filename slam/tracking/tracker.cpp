@@ -81,9 +81,9 @@ Tracker::Tracker(map::SharedMap& map, map::KeyframeSink* sink, const bow::Vocabu
       sink_(sink),
       vocabulary_(vocabulary),
       geometry_(std::move(geometry)),
-      extractor_(extractor),
       camera_(camera),
-      options_(options) {
+      options_(options),
+      extraction_(extractor, camera, options.rgb_input) {
   options_.check();
   geometry_->check();
   std::lock_guard lock(shared_.mutex);
@@ -92,15 +92,6 @@ Tracker::Tracker(map::SharedMap& map, map::KeyframeSink* sink, const bow::Vocabu
   // A map that already holds keyframes (a loaded one) has its frame of reference: the first
   // frame relocalizes into it instead of starting a new map, and mapping then extends it.
   if (shared_.map.keyframe_count() > 0) state_ = TrackingState::kLost;
-}
-
-cv::Mat to_grey(const cv::Mat& image, bool rgb) {
-  cv::Mat grey = image;
-  if (image.channels() == 3)
-    cv::cvtColor(image, grey, rgb ? cv::COLOR_RGB2GRAY : cv::COLOR_BGR2GRAY);
-  if (image.channels() == 4)
-    cv::cvtColor(image, grey, rgb ? cv::COLOR_RGBA2GRAY : cv::COLOR_BGRA2GRAY);
-  return grey;
 }
 
 // Images that do not belong to this camera are an input error (coloc::Error with the sizes),
@@ -131,14 +122,28 @@ void Tracker::compute_bow(frame::Frame& f) const {
 
 TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double timestamp) {
   check_images(image, depth, camera_);
+  return track_features(depth, timestamp, extraction_(image));
+}
+
+TrackingResult Tracker::track(const cv::Mat& image, const cv::Mat& depth, double timestamp,
+                              ImageFeatures extracted) {
+  check_images(image, depth, camera_);
+  if (extracted.grey.size() != image.size())
+    throw Error("tracking was handed the features of another image (of " +
+                std::to_string(extracted.grey.cols) + "x" + std::to_string(extracted.grey.rows) +
+                " pixels)");
+  return track_features(depth, timestamp, std::move(extracted));
+}
+
+TrackingResult Tracker::track_features(const cv::Mat& depth, double timestamp,
+                                       ImageFeatures extracted) {
   TrackingResult result;
-  Stopwatch watch;
-  const cv::Mat grey = to_grey(image, options_.rgb_input);
-  current_ = frame::Frame(frame_ids_.next(), timestamp, extractor_.extract(grey, &camera_), depth,
-                          geometry_);
+  result.extract_ms = extracted.extract_ms;
+  const cv::Mat grey = extracted.grey;
+  current_ =
+      frame::Frame(frame_ids_.next(), timestamp, std::move(extracted.features), depth, geometry_);
   current_depth_ = depth;
-  result.extract_ms = watch.elapsed_ms();
-  watch.restart();
+  Stopwatch watch;
   pose_rate_ = Eigen::Vector3d::Zero();
   bool make_keyframe = false;
   {

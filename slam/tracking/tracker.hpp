@@ -22,6 +22,7 @@
 #include "slam/map/keyframe_sink.hpp"
 #include "slam/map/shared_map.hpp"
 #include "slam/reloc/relocalizer.hpp"
+#include "slam/tracking/image_features.hpp"
 
 namespace coloc::slam::tracking {
 
@@ -191,10 +192,6 @@ struct FrameRecord {
   bool tracked = false;
 };
 
-// The grey image tracking works on: 8-bit grey as it is, 3- or 4-channel colour converted with the
-// channel weights of its order (`rgb`: RGB(A), else BGR(A)).
-cv::Mat to_grey(const cv::Mat& image, bool rgb);
-
 class Tracker {
  public:
   // `map`, `vocabulary` and `sink` must outlive the tracker. `sink` null: localization only, in
@@ -209,6 +206,10 @@ class Tracker {
   // `image`: 8-bit grey, or colour in the order options.rgb_input says; `depth`: CV_32FC1 metres
   // registered to it (0 = invalid).
   TrackingResult track(const cv::Mat& image, const cv::Mat& depth, double timestamp);
+  // The same with the image's features extracted beforehand, by a FeatureExtraction made from
+  // extraction_settings() (on another thread: slam/pipeline/extract_ahead.hpp).
+  TrackingResult track(const cv::Mat& image, const cv::Mat& depth, double timestamp,
+                       ImageFeatures extracted);
 
   TrackingState state() const { return state_; }
   const std::vector<FrameRecord>& records() const { return records_; }
@@ -221,6 +222,8 @@ class Tracker {
   int relocalizations() const { return relocalizations_; }
 
  private:
+  // track() once the images are checked and the features extracted.
+  TrackingResult track_features(const cv::Mat& depth, double timestamp, ImageFeatures extracted);
   bool initialize();
   // One frame of an initialized tracker (motion model / reference keyframe / relocalization,
   // then the local map); sets state_, the stage times and whether to make a keyframe.
@@ -258,9 +261,9 @@ class Tracker {
   map::KeyframeSink* sink_;
   const bow::Vocabulary& vocabulary_;
   std::shared_ptr<const frame::FrameGeometry> geometry_;
-  features::OrbExtractor extractor_;
   Camera camera_;
   TrackingOptions options_;
+  FeatureExtraction extraction_;
 
   IdIssuer<FrameId> frame_ids_;
   TrackingState state_ = TrackingState::kNotInitialized;
