@@ -2,30 +2,18 @@
 
 #include <spdlog/spdlog.h>
 
-#include <opencv2/imgproc.hpp>
 #include <optional>
 
 #include "slam/core/error.hpp"
 #include "slam/core/progress.hpp"
 #include "slam/dataset/sequence.hpp"
 #include "slam/localize/localizer.hpp"
+#include "slam/tracking/image_features.hpp"
 
 namespace coloc::registration::align {
-namespace {
 
 namespace fs = std::filesystem;
 using slam::localize::LocalizationState;
-
-// The grey image tracking extracts from (Camera.RGB decides the channel weights), so the
-// sampled frames' features are the ones the localizer saw.
-cv::Mat to_grey(const cv::Mat& image, bool rgb) {
-  if (image.channels() == 1) return image;
-  cv::Mat grey;
-  cv::cvtColor(image, grey, rgb ? cv::COLOR_RGB2GRAY : cv::COLOR_BGR2GRAY);
-  return grey;
-}
-
-}  // namespace
 
 LocalizedWalk localize_walk(const fs::path& map_path, const slam::bow::Vocabulary& vocabulary,
                             const WalkOptions& o) {
@@ -40,7 +28,10 @@ LocalizedWalk localize_walk(const fs::path& map_path, const slam::bow::Vocabular
   const auto sequence = dataset::open_sequence(o.sequence, sequence_options);
   const slam::localize::LocalizerOptions options = slam::localize::options_from_settings(settings);
   slam::localize::Localizer localizer(*map, vocabulary, settings, options);
-  slam::features::OrbExtractor extractor(options.extractor);
+  // The features tracking extracts (Camera.RGB decides the channel weights), so the sampled
+  // frames' features are the ones the localizer saw.
+  slam::tracking::FeatureExtraction extraction(options.extractor, settings.camera,
+                                               settings.rgb_order);
   LocalizedWalk walk;
   walk.frames = sequence->size();
   std::vector<SE3> sampled_poses;
@@ -62,8 +53,7 @@ LocalizedWalk localize_walk(const fs::path& map_path, const slam::bow::Vocabular
     if (r.state == LocalizationState::kLost || r.state == LocalizationState::kOdometry) continue;
     walk.trajectory.push_back({r.timestamp, r.world_from_cam});
     if (walk.localized++ % o.every != 0) continue;
-    walk.features.push_back(
-        extractor.extract(to_grey(frame->color, settings.rgb_order), &settings.camera));
+    walk.features.push_back(extraction(frame->color).features);
     sampled_poses.push_back(r.world_from_cam.inverse());
     sampled_times.push_back(r.timestamp);
   }
