@@ -3,7 +3,8 @@
 namespace coloc::slam::matching {
 
 int optimize_frame_pose(frame::Frame& frame, const map::Map& map,
-                        const optim::PoseOptimizerOptions& options) {
+                        const optim::PoseOptimizerOptions& options,
+                        const optim::CentrePrior* prior) {
   const auto& g = frame.geometry();
   std::vector<optim::PoseObservation> obs;
   std::vector<std::size_t> index;
@@ -23,8 +24,8 @@ int optimize_frame_pose(frame::Frame& frame, const map::Map& map,
     index.push_back(i);
   }
   if (obs.size() < 3) return 0;
-  const auto result =
-      optim::optimize_pose(frame.cam_from_world, obs, {g.fx, g.fy, g.cx, g.cy, g.bf}, options);
+  const auto result = optim::optimize_pose(frame.cam_from_world, obs,
+                                           {g.fx, g.fy, g.cx, g.cy, g.bf}, options, prior);
   frame.cam_from_world = result.cam_from_world;
   for (std::size_t k = 0; k < index.size(); ++k)
     frame.outlier[index[k]] = result.outlier[k];

@@ -32,8 +32,10 @@ double chi2_of(const SE3& pose, const PoseObservation& o, const Intrinsics& k) {
 }  // namespace
 
 PoseOptimizationResult optimize_pose(const SE3& initial, const std::vector<PoseObservation>& obs,
-                                     const Intrinsics& k, const PoseOptimizerOptions& options) {
+                                     const Intrinsics& k, const PoseOptimizerOptions& options,
+                                     const CentrePrior* prior) {
   options.check();
+  if (prior && !(prior->sigma_m > 0.0)) throw Error("CentrePrior.sigma_m must be > 0");
   PoseOptimizationResult result;
   result.cam_from_world = initial;
   result.outlier.assign(obs.size(), 0);
@@ -71,6 +73,14 @@ PoseOptimizationResult optimize_pose(const SE3& initial, const std::vector<PoseO
         }
       }
       if (used < 3) break;
+      if (prior) {
+        // Centre c = -R^T t; under pose <- exp(dx) * pose it moves by -R^T d_rho (first order).
+        const Eigen::Matrix3d rt = pose.rotation().transpose();
+        const Eigen::Vector3d r = -rt * pose.translation() - prior->world_centre;
+        const double w = 1.0 / (prior->sigma_m * prior->sigma_m);
+        h.topLeftCorner<3, 3>() += w * Eigen::Matrix3d::Identity();  // J^T J with J = [-R^T 0]
+        b.head<3>() += w * rt.transpose() * r;                       // -J^T r
+      }
       const Vector6d dx = h.ldlt().solve(b);
       if (!dx.allFinite()) break;
       pose = SE3::exp(dx) * pose;

@@ -29,6 +29,15 @@ struct PoseOptimizerOptions {
   void check() const;
 };
 
+// A prior on where the camera centre is (world frame, metres): where the motion model puts it.
+// Its residual is the centre's offset over `sigma_m`, in the same whitened units as a keypoint's
+// reprojection error. It leaves the rotation free (to first order the centre does not depend on
+// it), so a fast turn is tracked as before.
+struct CentrePrior {
+  Eigen::Vector3d world_centre = Eigen::Vector3d::Zero();
+  double sigma_m = 0.02;
+};
+
 struct PoseOptimizationResult {
   SE3 cam_from_world;
   std::vector<std::uint8_t> outlier;  // per observation
@@ -38,6 +47,7 @@ struct PoseOptimizationResult {
 PoseOptimizationResult optimize_pose(const SE3& initial_cam_from_world,
                                      const std::vector<PoseObservation>& observations,
                                      const Intrinsics& intrinsics,
-                                     const PoseOptimizerOptions& options = {});
+                                     const PoseOptimizerOptions& options = {},
+                                     const CentrePrior* prior = nullptr);
 
 }  // namespace coloc::slam::optim

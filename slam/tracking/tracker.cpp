@@ -58,6 +58,8 @@ void TrackingOptions::check() const {
   if (!(reloc_gate_speed >= 0.0)) throw Error("TrackingOptions.reloc_gate_speed must be >= 0");
   if (!(weak_reference_ratio == 0.0 || weak_reference_ratio >= 1.0))
     throw Error("TrackingOptions.weak_reference_ratio must be 0 (off) or at least 1");
+  if (!(motion_prior_sigma_m >= 0.0))
+    throw Error("TrackingOptions.motion_prior_sigma_m must be >= 0 (0: off)");
   if (!(keyframe_defer_ratio >= 0.0 && keyframe_defer_ratio < 1.0))
     throw Error("TrackingOptions.keyframe_defer_ratio must be in [0, 1)");
   if (keyframe_defer_max < 0) throw Error("TrackingOptions.keyframe_defer_max must be >= 0");
@@ -145,6 +147,7 @@ TrackingResult Tracker::track_features(const cv::Mat& depth, double timestamp,
   current_depth_ = depth;
   Stopwatch watch;
   pose_rate_ = Eigen::Vector3d::Zero();
+  centre_prior_.reset();
   bool make_keyframe = false;
   {
     std::lock_guard lock(shared_.mutex);
@@ -277,7 +280,7 @@ void Tracker::refine_rolling_shutter(int image_rows) {
   pose_rate_ = pose_rate;
   // Readout still 0 while it is estimated: only the rate is recorded, for local mapping.
   if (readout == 0.0) return;
-  int after = matching::optimize_frame_pose(current_, shared_.map);
+  int after = optimize_pose(current_);
   if (options_.rolling_shutter_rate_sigma > 0.0) {
     // The two-pose rate is noisy (two poses' errors over 33 ms): refine it with what the rows'
     // shear in this image asks for, then compensate again from the raw keypoints.
@@ -299,7 +302,7 @@ void Tracker::refine_rolling_shutter(int image_rows) {
     frame::Frame refined = uncompensated;
     refined.cam_from_world = current_.cam_from_world;
     refined.compensate_rolling_shutter(rate, image_rows, readout);
-    after = matching::optimize_frame_pose(refined, shared_.map);
+    after = optimize_pose(refined);
     current_ = std::move(refined);
   }
   // A poorly tracked (blurred) frame gives a wrong rate: the compensation is undone when it costs
@@ -366,6 +369,10 @@ bool Tracker::initialize() {
 bool Tracker::track_from_last_frame() {
   if (!shared_.map.keyframe(reference_)) update_local_map();
   follow_reference_of_last_frame();
+  if (has_velocity_ && options_.motion_prior_sigma_m > 0.0)
+    centre_prior_ = optim::CentrePrior{
+        .world_centre = (velocity_ * last_.cam_from_world).inverse().translation(),
+        .sigma_m = options_.motion_prior_sigma_m};
   if (has_velocity_ && track_motion_model(velocity_)) return true;
   if (track_reference_keyframe()) return true;
   // Right after a relocalization there is no velocity yet, and the reference keyframe's BoW
@@ -384,7 +391,7 @@ bool Tracker::track_motion_model(const SE3& velocity) {
     n = matching::search_from_last_frame(current_, last_, m, 2.0 * options_.motion_search_radius);
   }
   if (n < 20) return false;
-  matching::optimize_frame_pose(current_, m);
+  optimize_pose(current_);
   spdlog::debug("tracking: frame {} motion model {} matches", current_.id.value(), n);
   int kept = 0;
   for (std::size_t i = 0; i < current_.size(); ++i) {
@@ -392,6 +399,11 @@ bool Tracker::track_motion_model(const SE3& velocity) {
   }
   matching::drop_outliers(current_);
   return kept >= 10;
+}
+
+int Tracker::optimize_pose(frame::Frame& frame) const {
+  return matching::optimize_frame_pose(frame, shared_.map, {},
+                                       centre_prior_ ? &*centre_prior_ : nullptr);
 }
 
 bool Tracker::track_reference_keyframe() {
@@ -406,7 +418,7 @@ bool Tracker::track_reference_keyframe() {
   current_.points.assign(current_.size(), MapPointId::invalid());
   if (matching::search_by_bow(*ref, current_, m) < 15) return false;
   current_.cam_from_world = last_.cam_from_world;
-  const int inliers = matching::optimize_frame_pose(current_, m);
+  const int inliers = optimize_pose(current_);
   matching::drop_outliers(current_);
   return inliers >= 10;
 }
@@ -515,7 +527,7 @@ bool Tracker::track_local_map() {
                                 maintain ? &visible : nullptr);
   for (MapPointId p : visible)
     ++m.point(p)->visible;
-  matching::optimize_frame_pose(current_, m);
+  optimize_pose(current_);
   matches_inliers_ = 0;
   for (std::size_t i = 0; i < current_.size(); ++i) {
     if (!current_.points[i].valid() || current_.outlier[i]) continue;

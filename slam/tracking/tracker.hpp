@@ -120,6 +120,20 @@ struct TrackingOptions {
   // point, and the fresh point replaces it. Set `Coloc.tracking.keyframe_keeps_outliers: 1` for
   // fast-turning rolling-shutter footage without a readout time.
   bool keyframe_keeps_outliers = false;
+  // Pose optimization of a frame tracked with the motion model holds the camera centre near
+  // the model's prediction with this sigma (metres; 0 = off): optim::CentrePrior. A blurred
+  // frame in a fast turn tracks 50-90 inliers, and what rotation they leave unsettled shows
+  // as translation: in fr1/rpy frames 50-53 the centre jumped 10-15 cm in three frames (the
+  // camera barely moves there), the keyframe made at frame 53 put its points at that pose,
+  // and the run ended at 54 mm instead of 15. A hand-held camera departs from constant
+  // velocity by 0.5 a dt^2: 3 mm per 30 Hz frame at 5 m/s^2; the model's velocity, from two
+  // poses a few mm off each, adds about as much. A sharp frame's hundreds of inliers outweigh
+  // the prior; rotation is left free. Measured 2026-11-29 (docs/results/mapping-speed.md),
+  // sigma 0 / 5 mm / 10 mm: fr1/rpy ORB-SLAM3 file paced, 7 runs, median 21.5 / 16.5 / 16.7
+  // mm; sequential over start frames 0-7, median 16.1 / 14.4 / 15.6; 7-Scenes 600f 34.0 / 33.3
+  // / 32.8 mm (55 / 46 / 49 keyframes); twin building seed 2, 9.5 / 8.6 / 6.5 mm. 3 mm was
+  // worse on fr1/rpy (18.5). 10 mm: the weaker of the two that work, for faster heads.
+  double motion_prior_sigma_m = 0.01;
   // Rolling-shutter compensation is kept when the re-optimized pose keeps at least this share
   // of the frame's inliers.
   double rolling_shutter_keep_ratio = 0.9;
@@ -232,6 +246,8 @@ class Tracker {
   // Motion model, else the reference keyframe, else (just relocalized) zero motion.
   bool track_from_last_frame();
   bool track_motion_model(const SE3& velocity);
+  // optimize_frame_pose() of `frame` with the motion model's centre prior, when there is one.
+  int optimize_pose(frame::Frame& frame) const;
   bool track_reference_keyframe();
   bool relocalize();
   bool track_local_map();
@@ -272,6 +288,8 @@ class Tracker {
   // from it (add_current_keyframe); released when track() returns.
   cv::Mat current_depth_;
   SE3 velocity_;  // current_from_last of the last two tracked frames
+  // Where the motion model puts current_'s centre (TrackingOptions::motion_prior_sigma_m).
+  std::optional<optim::CentrePrior> centre_prior_;
   bool has_velocity_ = false;
   KeyframeId reference_;
   FrameId last_keyframe_frame_;

@@ -1,4 +1,5 @@
-// Analytic Jacobians against numerical ones, the pose-only optimizer with outliers, local
+// Analytic Jacobians against numerical ones, the pose-only optimizer with outliers and with the
+// motion model's centre prior, local
 // bundle adjustment on a noisy synthetic window, and the rolling-shutter readout estimated by it.
 #include <gtest/gtest.h>
 
@@ -117,6 +118,52 @@ TEST(Optim, PoseOptimizationRecoversPoseAndFlagsOutliers) {
   EXPECT_EQ(flagged, 30);
   EXPECT_GE(r.inliers, 150);
   EXPECT_THROW(optimize_pose(start, obs, kK, {.rounds = 0}), Error);
+}
+
+Eigen::Vector3d centre(const SE3& cam_from_world) {
+  return cam_from_world.inverse().translation();
+}
+
+// A blurred frame: few far keypoints near the image centre, 3 px off, where a turn and a
+// sideways step look alike. The prior at the predicted centre keeps the step out.
+TEST(Optim, CentrePriorHoldsTheCentreOfAWeaklyObservedFrame) {
+  const SE3 truth = some_pose();
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(260, 380), v(190, 290), depth(3.0, 4.0);
+  std::normal_distribution<double> noise(0.0, 3.0);
+  std::vector<PoseObservation> obs;
+  for (int i = 0; i < 12; ++i) {
+    const double z = depth(rng);
+    const Eigen::Vector2d uv(u(rng), v(rng));
+    PoseObservation o;
+    o.world = truth.inverse() *
+              Eigen::Vector3d((uv.x() - kK.cx) * z / kK.fx, (uv.y() - kK.cy) * z / kK.fy, z);
+    o.pixel = uv + Eigen::Vector2d(noise(rng), noise(rng));
+    obs.push_back(o);
+  }
+  const CentrePrior prior{.world_centre = centre(truth), .sigma_m = 0.01};
+  const auto free = optimize_pose(truth, obs, kK);
+  const auto held = optimize_pose(truth, obs, kK, {}, &prior);
+  const double free_m = (centre(free.cam_from_world) - centre(truth)).norm();
+  const double held_m = (centre(held.cam_from_world) - centre(truth)).norm();
+  EXPECT_GT(free_m, 0.03) << "the frame alone does not fix its centre";
+  EXPECT_LT(held_m, 0.01);
+  const CentrePrior no_sigma{.sigma_m = 0.0};
+  EXPECT_THROW(optimize_pose(truth, obs, kK, {}, &no_sigma), Error);
+}
+
+// A sharp frame's hundreds of inliers outweigh a prior 5 cm off: the prediction of a camera
+// that did accelerate does not bend its pose.
+TEST(Optim, CentrePriorLeavesAWellObservedFrameToItsPoints) {
+  std::mt19937 rng(3);
+  const SE3 truth = some_pose();
+  const auto obs = observe(truth, 200, 0, rng);
+  const CentrePrior prior{.world_centre = centre(truth) + Eigen::Vector3d(0.05, 0.0, 0.0),
+                          .sigma_m = 0.01};
+  const auto free = optimize_pose(truth, obs, kK);
+  const auto held = optimize_pose(truth, obs, kK, {}, &prior);
+  EXPECT_LT((centre(held.cam_from_world) - centre(free.cam_from_world)).norm(), 0.002);
+  EXPECT_LT(rotation_distance(held.cam_from_world, free.cam_from_world), 0.001);
 }
 
 TEST(Optim, LocalBundleAdjustmentReducesPoseAndPointErrors) {
