@@ -60,6 +60,8 @@ void TrackingOptions::check() const {
     throw Error("TrackingOptions.weak_reference_ratio must be 0 (off) or at least 1");
   if (!(motion_prior_sigma_m >= 0.0))
     throw Error("TrackingOptions.motion_prior_sigma_m must be >= 0 (0: off)");
+  if (motion_prior_max_matches < 0)
+    throw Error("TrackingOptions.motion_prior_max_matches must be >= 0");
   if (!(keyframe_defer_ratio >= 0.0 && keyframe_defer_ratio < 1.0))
     throw Error("TrackingOptions.keyframe_defer_ratio must be in [0, 1)");
   if (keyframe_defer_max < 0) throw Error("TrackingOptions.keyframe_defer_max must be >= 0");
@@ -391,6 +393,7 @@ bool Tracker::track_motion_model(const SE3& velocity) {
     n = matching::search_from_last_frame(current_, last_, m, 2.0 * options_.motion_search_radius);
   }
   if (n < 20) return false;
+  if (n >= options_.motion_prior_max_matches) centre_prior_.reset();  // a sharp frame
   optimize_pose(current_);
   spdlog::debug("tracking: frame {} motion model {} matches", current_.id.value(), n);
   int kept = 0;

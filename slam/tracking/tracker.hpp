@@ -120,20 +120,22 @@ struct TrackingOptions {
   // point, and the fresh point replaces it. Set `Coloc.tracking.keyframe_keeps_outliers: 1` for
   // fast-turning rolling-shutter footage without a readout time.
   bool keyframe_keeps_outliers = false;
-  // Pose optimization of a frame tracked with the motion model holds the camera centre near
-  // the model's prediction with this sigma (metres; 0 = off): optim::CentrePrior. A blurred
-  // frame in a fast turn tracks 50-90 inliers, and what rotation they leave unsettled shows
-  // as translation: in fr1/rpy frames 50-53 the centre jumped 10-15 cm in three frames (the
-  // camera barely moves there), the keyframe made at frame 53 put its points at that pose,
-  // and the run ended at 54 mm instead of 15. A hand-held camera departs from constant
-  // velocity by 0.5 a dt^2: 3 mm per 30 Hz frame at 5 m/s^2; the model's velocity, from two
-  // poses a few mm off each, adds about as much. A sharp frame's hundreds of inliers outweigh
-  // the prior; rotation is left free. Measured 2026-11-29 (docs/results/mapping-speed.md),
-  // sigma 0 / 5 mm / 10 mm: fr1/rpy ORB-SLAM3 file paced, 7 runs, median 21.5 / 16.5 / 16.7
-  // mm; sequential over start frames 0-7, median 16.1 / 14.4 / 15.6; 7-Scenes 600f 34.0 / 33.3
-  // / 32.8 mm (55 / 46 / 49 keyframes); twin building seed 2, 9.5 / 8.6 / 6.5 mm. 3 mm was
-  // worse on fr1/rpy (18.5). 10 mm: the weaker of the two that work, for faster heads.
+  // Pose optimization of a weakly matched frame (the motion model's search found fewer than
+  // motion_prior_max_matches) holds the camera centre near the model's prediction with this
+  // sigma (metres; 0 = off): optim::CentrePrior. A blurred frame in a fast turn tracks 50-90
+  // inliers, and what rotation they leave unsettled shows as translation: in fr1/rpy frames
+  // 50-53 the centre stepped 4 cm per frame while the camera barely moved, the keyframe made at
+  // frame 53 put its points at that pose, and the run ended at 54 mm instead of 15. A hand-held
+  // camera departs from constant velocity by 0.5 a dt^2, 3 mm per 30 Hz frame at 5 m/s^2.
+  // Rotation is left free. Only for weak frames: on every frame the prior is a filter whose
+  // prediction comes from its own past estimates, and on the twin building's walk (150-300
+  // matches a frame) it doubled the drift as tracked without loop closing, 14.8 -> 29.2 mm;
+  // with the 150 gate that walk is untouched. Measured 2026-11-29 (docs/results/mapping-speed.md):
+  // fr1/rpy ORB-SLAM3 file over start frames 0-7, median (max) 16.06 (19.44) off, 15.57 (17.23)
+  // on every frame, 14.72 (16.80) gated; 7-Scenes 600f 33.99 / 32.79 / 32.72 mm. Sigma 5 mm
+  // and 3 mm were no better (14.39 and 18.46 ungated), nor a gate of 100 (15.50, max 22.30).
   double motion_prior_sigma_m = 0.01;
+  int motion_prior_max_matches = 150;
   // Rolling-shutter compensation is kept when the re-optimized pose keeps at least this share
   // of the frame's inliers.
   double rolling_shutter_keep_ratio = 0.9;

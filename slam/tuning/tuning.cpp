@@ -35,6 +35,7 @@ constexpr std::array kTunables{
   Tunable{"tracking.max_local_keyframes", [](SystemOptions& o) -> Field { return &o.tracking.max_local_keyframes; }},
   Tunable{"tracking.weak_reference_ratio", [](SystemOptions& o) -> Field { return &o.tracking.weak_reference_ratio; }},
   Tunable{"tracking.motion_prior_sigma_m", [](SystemOptions& o) -> Field { return &o.tracking.motion_prior_sigma_m; }},
+  Tunable{"tracking.motion_prior_max_matches", [](SystemOptions& o) -> Field { return &o.tracking.motion_prior_max_matches; }},
   Tunable{"tracking.keyframe_defer_ratio", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_defer_ratio; }},
   Tunable{"tracking.keyframe_defer_max", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_defer_max; }},
   Tunable{"tracking.keyframe_defer_deviation_deg", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_defer_deviation_deg; }},

@@ -35,9 +35,6 @@ SystemOptions sequential() {
   // Every keyframe the frames ask for: this small room is covered by the first half's few
   // keyframes at the default pace, and the second half must have views to add.
   options.tracking.min_frames_between_keyframes = 0;
-  // And without the motion model's centre prior: with it, this slow walk's frames track the
-  // first half's four keyframes so well that none asks for another, in one go or continued.
-  options.tracking.motion_prior_sigma_m = 0.0;
   options.detect_markers = false;
   return options;
 }
