@@ -36,6 +36,47 @@ mapping::GyroOptions gyro_options(const settings::Settings& settings) {
   return o;
 }
 
+struct TrackedFrames {
+  std::size_t tracked = 0, unusable = 0;
+};
+
+// Every frame of `frames` into `slam`, the features extracted ahead unless
+// RunOptions::extract_ahead is 0.
+TrackedFrames track_frames(system::System& slam, dataset::FrameSource& frames,
+                           const settings::Settings& settings, const RunOptions& run) {
+  Progress progress("slam", frames.remaining(), !run.progress);
+  std::optional<ExtractAhead> ahead;
+  if (run.extract_ahead > 0)
+    ahead.emplace(frames, slam.feature_extraction(), settings.rgb_order, run.extract_ahead);
+  auto next = [&]() -> std::optional<ExtractedFrame> {
+    if (ahead) return ahead->next();
+    auto frame = frames.next();
+    if (!frame) return std::nullopt;
+    frame->color = dataset::to_camera_order(frame->color, settings.rgb_order);
+    return ExtractedFrame{std::move(*frame), std::nullopt};
+  };
+  TrackedFrames counts;
+  while (auto item = next()) {
+    progress.advance();
+    const dataset::Frame& frame = item->frame;
+    try {
+      if (item->features)
+        slam.track(frame.color, frame.depth, frame.timestamp, std::move(*item->features));
+      else
+        slam.track(frame.color, frame.depth, frame.timestamp);
+      ++counts.tracked;
+    } catch (const Error& e) {
+      // Images that do not fit the camera (wrong size, depth of another size) cost one frame,
+      // named, not the whole session (unreadable ones are skipped by the source).
+      spdlog::warn("frame {} skipped ({}, {}): {}", frame.index, frame.color_path.string(),
+                   frame.depth_path.string(), e.what());
+      ++counts.unusable;
+    }
+  }
+  progress.finish();
+  return counts;  // `ahead`'s thread is joined: the source's counts are final
+}
+
 }  // namespace
 
 const char* pacing_name(const RunOptions& run) {
@@ -80,42 +121,11 @@ RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
     }
   } detach{run.on_stop};
   if (run.on_start) run.on_start(slam);
-  Progress progress("slam", frames.remaining(), !run.progress);
   RunResult r;
-  std::size_t tracked = 0, unusable = 0;
-  // Off (0): extraction on the tracking thread, the frames taken straight from the source.
-  std::optional<ExtractAhead> ahead;
-  if (run.extract_ahead > 0)
-    ahead.emplace(frames, slam.feature_extraction(), settings.rgb_order, run.extract_ahead);
-  auto next = [&]() -> std::optional<ExtractedFrame> {
-    if (ahead) return ahead->next();
-    auto frame = frames.next();
-    if (!frame) return std::nullopt;
-    frame->color = dataset::to_camera_order(frame->color, settings.rgb_order);
-    return ExtractedFrame{std::move(*frame), std::nullopt};
-  };
-  while (auto item = next()) {
-    progress.advance();
-    const dataset::Frame* frame = &item->frame;
-    try {
-      if (item->features)
-        slam.track(frame->color, frame->depth, frame->timestamp, std::move(*item->features));
-      else
-        slam.track(frame->color, frame->depth, frame->timestamp);
-      ++tracked;
-    } catch (const Error& e) {
-      // Images that do not fit the camera (wrong size, depth of another size) cost one frame,
-      // named, not the whole session (unreadable ones are skipped by the source).
-      spdlog::warn("frame {} skipped ({}, {}): {}", frame->index, frame->color_path.string(),
-                   frame->depth_path.string(), e.what());
-      ++unusable;
-    }
-  }
-  progress.finish();
-  ahead.reset();  // its thread reads `frames`'s counts no more
-  r.skipped_frames = frames.skipped() + unusable;
+  const TrackedFrames counts = track_frames(slam, frames, settings, run);
+  r.skipped_frames = frames.skipped() + counts.unusable;
   r.late_frames = frames.late();
-  if (tracked == 0)
+  if (counts.tracked == 0)
     throw Error(r.skipped_frames > 0
                     ? "no frame of the sequence could be read or used (see the warnings)"
                     : "no frame came from the camera");
