@@ -35,7 +35,7 @@ struct PoseOptimizerOptions {
 // it), so a fast turn is tracked as before.
 struct CentrePrior {
   Eigen::Vector3d world_centre = Eigen::Vector3d::Zero();
-  double sigma_m = 0.02;
+  double sigma_m = 0.01;
 };
 
 struct PoseOptimizationResult {
