@@ -4,12 +4,11 @@
 
 #include <atomic>
 #include <chrono>
-#include <exception>
 #include <mutex>
 #include <thread>
 
-#include "slam/core/bounded_queue.hpp"
 #include "slam/core/error.hpp"
+#include "slam/core/prefetch.hpp"
 
 namespace coloc::dataset {
 namespace {
@@ -78,25 +77,17 @@ class PacedFrames final : public FrameSource {
 class ReadAheadFrames final : public FrameSource {
  public:
   ReadAheadFrames(std::unique_ptr<FrameSource> source, std::size_t capacity)
-      : source_(std::move(source)), queue_(capacity), source_remaining_(source_->remaining()) {
-    reader_ = std::thread([this] { read(); });
-  }
-  ~ReadAheadFrames() override {
-    queue_.close();  // a reader blocked on a full queue gives up
-    reader_.join();
-  }
-  ReadAheadFrames(const ReadAheadFrames&) = delete;
-  ReadAheadFrames& operator=(const ReadAheadFrames&) = delete;
+      : source_(std::move(source)),
+        source_remaining_(source_->remaining()),
+        reader_([this] { return read(); }, capacity) {}
 
   std::optional<Frame> next() override {
-    auto item = queue_.pop();
-    if (!item) return std::nullopt;  // the end of the source
-    if (item->error) std::rethrow_exception(item->error);
-    {
+    auto frame = reader_.next();
+    if (frame) {
       const std::lock_guard lock(count_mutex_);
       ++handed_;
     }
-    return std::move(item->frame);
+    return frame;
   }
   // Frames not handed out yet: the source's own count plus those read and not handed out.
   std::size_t remaining() const override {
@@ -106,37 +97,24 @@ class ReadAheadFrames final : public FrameSource {
   std::size_t skipped() const override { return skipped_.load(); }
 
  private:
-  struct Item {
-    Frame frame;
-    std::exception_ptr error;
-  };
-
-  void read() {
-    try {
-      while (auto frame = source_->next()) {
-        {
-          // Both at once, so remaining() never sees a frame in flight twice or not at all.
-          const std::lock_guard lock(count_mutex_);
-          ++read_;
-          source_remaining_ = source_->remaining();
-        }
-        skipped_.store(source_->skipped());
-        if (!queue_.push(Item{std::move(*frame), nullptr})) return;  // the consumer left
-      }
-      skipped_.store(source_->skipped());
-    } catch (...) {
-      queue_.push(Item{{}, std::current_exception()});
+  std::optional<Frame> read() {  // on the reader thread
+    auto frame = source_->next();
+    if (frame) {
+      // Both at once, so remaining() never sees a frame in flight twice or not at all.
+      const std::lock_guard lock(count_mutex_);
+      ++read_;
+      source_remaining_ = source_->remaining();
     }
-    queue_.close();
+    skipped_.store(source_->skipped());
+    return frame;
   }
 
   std::unique_ptr<FrameSource> source_;
-  BoundedQueue<Item> queue_;
   mutable std::mutex count_mutex_;
   std::size_t source_remaining_;       // the source's remaining() after its last read
   std::size_t read_ = 0, handed_ = 0;  // frames read from the source, handed out by next()
   std::atomic<std::size_t> skipped_{0};
-  std::thread reader_;
+  Prefetch<Frame> reader_;  // last: its thread reads the members above
 };
 
 }  // namespace

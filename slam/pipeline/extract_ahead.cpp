@@ -1,5 +1,6 @@
 #include "slam/pipeline/extract_ahead.hpp"
 
+#include <exception>
 #include <utility>
 
 namespace coloc::slam::pipeline {
@@ -9,39 +10,19 @@ ExtractAhead::ExtractAhead(dataset::FrameSource& source, tracking::FeatureExtrac
     : source_(source),
       extraction_(std::move(extraction)),
       rgb_order_(rgb_order),
-      queue_(capacity),
-      worker_([this] { run(); }) {}
+      worker_([this] { return extract_next(); }, capacity) {}
 
-ExtractAhead::~ExtractAhead() {
-  queue_.close();  // a worker blocked on a full queue gives up
-  worker_.join();
-}
-
-std::optional<ExtractedFrame> ExtractAhead::next() {
-  auto item = queue_.pop();
-  if (!item) return std::nullopt;
-  if (item->error) std::rethrow_exception(item->error);
-  return std::move(item->extracted);
-}
-
-void ExtractAhead::run() {
+std::optional<ExtractedFrame> ExtractAhead::extract_next() {
+  auto frame = source_.next();
+  if (!frame) return std::nullopt;
+  ExtractedFrame out{std::move(*frame), std::nullopt};
+  out.frame.color = dataset::to_camera_order(out.frame.color, rgb_order_);
   try {
-    while (auto frame = source_.next()) {
-      Item item;
-      item.extracted.frame = std::move(*frame);
-      cv::Mat& color = item.extracted.frame.color;
-      color = dataset::to_camera_order(color, rgb_order_);
-      try {
-        item.extracted.features = extraction_(color);
-      } catch (const std::exception&) {
-        // Left to tracking, which checks the image and says what is wrong with it.
-      }
-      if (!queue_.push(std::move(item))) return;  // the consumer left
-    }
-  } catch (...) {
-    queue_.push(Item{{}, std::current_exception()});
+    out.features = extraction_(out.frame.color);
+  } catch (const std::exception&) {
+    // Left to tracking, which checks the image and says what is wrong with it.
   }
-  queue_.close();
+  return out;
 }
 
 }  // namespace coloc::slam::pipeline

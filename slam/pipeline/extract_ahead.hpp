@@ -5,11 +5,9 @@
 // the mapper is idle (live). Frames keep their order; the map is the same as with tracking
 // extracting itself (tracking::FeatureExtraction gives identical features).
 #include <cstddef>
-#include <exception>
 #include <optional>
-#include <thread>
 
-#include "slam/core/bounded_queue.hpp"
+#include "slam/core/prefetch.hpp"
 #include "slam/dataset/frame_source.hpp"
 #include "slam/tracking/image_features.hpp"
 
@@ -30,26 +28,17 @@ class ExtractAhead {
   // backlog. `rgb_order`: the settings' Camera.RGB (dataset::to_camera_order).
   ExtractAhead(dataset::FrameSource& source, tracking::FeatureExtraction extraction, bool rgb_order,
                std::size_t capacity);
-  // Waits for a read of the source in progress (dataset::read_ahead has the caveat).
-  ~ExtractAhead();
-  ExtractAhead(const ExtractAhead&) = delete;
-  ExtractAhead& operator=(const ExtractAhead&) = delete;
 
   // The next frame; nothing at the end. An exception of the source comes out here, at its frame.
-  std::optional<ExtractedFrame> next();
+  std::optional<ExtractedFrame> next() { return worker_.next(); }
 
  private:
-  struct Item {
-    ExtractedFrame extracted;
-    std::exception_ptr error;
-  };
-  void run();
+  std::optional<ExtractedFrame> extract_next();  // on the worker thread
 
   dataset::FrameSource& source_;
   tracking::FeatureExtraction extraction_;
   bool rgb_order_;
-  BoundedQueue<Item> queue_;
-  std::thread worker_;
+  Prefetch<ExtractedFrame> worker_;  // last: its thread uses the members above
 };
 
 }  // namespace coloc::slam::pipeline

@@ -1,9 +1,13 @@
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <optional>
 #include <thread>
 #include <vector>
 
 #include "slam/core/bounded_queue.hpp"
+#include "slam/core/error.hpp"
+#include "slam/core/prefetch.hpp"
 #include "slam/core/stage_queue.hpp"
 
 namespace coloc {
@@ -71,6 +75,31 @@ TEST(StageQueue, CloseRefusesPushesAndWakesAnIdleWaiter) {
   closer.join();
   EXPECT_FALSE(stage.push(2));
   EXPECT_EQ(stage.size(), 1u);  // the refused item was not counted or queued
+}
+
+// Items in order, the producer's error where its item would have been, then the end.
+TEST(Prefetch, HandsOutInOrderThenTheProducersErrorThenTheEnd) {
+  int n = 0;
+  Prefetch<int> ahead(
+      [&n]() -> std::optional<int> {
+        if (n == 5) throw Error("item 5 is broken");
+        return n++;
+      },
+      2);
+  for (int i = 0; i < 5; ++i)
+    EXPECT_EQ(ahead.next(), i);
+  EXPECT_THROW(ahead.next(), Error);
+  EXPECT_FALSE(ahead.next());
+}
+
+// A consumer that leaves early stops the producer: no more than the queue and the item in hand.
+TEST(Prefetch, LeavingEarlyStopsTheProducer) {
+  std::atomic<int> produced{0};
+  {
+    Prefetch<int> ahead([&produced]() -> std::optional<int> { return produced++; }, 3);
+    EXPECT_EQ(ahead.next(), 0);
+  }
+  EXPECT_LE(produced.load(), 5);  // 1 taken + 3 queued + 1 refused at the close
 }
 
 }  // namespace
