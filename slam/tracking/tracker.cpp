@@ -37,6 +37,8 @@ void TrackingOptions::check() const {
   if (!(motion_search_radius > 0.0))
     throw Error("TrackingOptions.motion_search_radius must be > 0");
   if (!(local_search_th > 0.0)) throw Error("TrackingOptions.local_search_th must be > 0");
+  if (!(reference_ratio > 0.0 && reference_ratio <= 1.0))
+    throw Error("TrackingOptions.reference_ratio must be in (0, 1]");
   if (min_local_inliers < 10) throw Error("TrackingOptions.min_local_inliers must be >= 10");
   if (min_frames_between_keyframes < 0)
     throw Error("TrackingOptions.min_frames_between_keyframes must be >= 0");
@@ -577,7 +579,7 @@ Tracker::KeyframeNeed Tracker::need_keyframe() const {
   }
   const bool need_close = tracked_close < options_.close_tracked_limit &&
                           untracked_close > options_.close_untracked_limit;
-  const double ref_ratio = n_kfs < 2 ? 0.4 : 0.75;
+  const double ref_ratio = n_kfs < 2 ? 0.4 : options_.reference_ratio;
   // No keyframe of this tracker yet (relocalized into a loaded map): as if long ago.
   const std::uint64_t since_kf =
       last_keyframe_frame_.valid() ? current_.id.value() - last_keyframe_frame_.value() : ~0ULL;

@@ -72,6 +72,12 @@ struct TrackingOptions {
   bool keyframe_needs_idle_mapper = false;
   int close_tracked_limit = 100;   // RGB-D rule: fewer close tracked points than this ...
   int close_untracked_limit = 70;  // ... and more close untracked ones => new keyframe
+  // A keyframe is needed once the frame tracks fewer than reference_ratio x the reference
+  // keyframe's points seen twice (ORB-SLAM's thRefRatio for RGB-D; 0.4 while the map has one
+  // keyframe). Lower values were measured on 2026-11-29 (docs/results/mapping-speed.md): 0.65
+  // takes the twin building from 230 to 208 keyframes at the same ATE, but fr1/rpy's start
+  // frames 0-7 end at 16.1 mm median instead of 14.7, one of them at 44 mm.
+  double reference_ratio = 0.75;
   int new_points_min = 100;        // new close points per keyframe (then stop at far depth)
   std::size_t max_local_keyframes = 80;
   // A keyframe anchors the map: its pose and the points unprojected from its depth stay until

@@ -30,6 +30,7 @@ constexpr std::array kTunables{
   Tunable{"tracking.early_keyframe_translation_m", [](SystemOptions& o) -> Field { return &o.tracking.early_keyframe_translation_m; }},
   Tunable{"tracking.min_frames_between_slow_keyframes", [](SystemOptions& o) -> Field { return &o.tracking.min_frames_between_slow_keyframes; }},
   Tunable{"tracking.close_tracked_limit", [](SystemOptions& o) -> Field { return &o.tracking.close_tracked_limit; }},
+  Tunable{"tracking.reference_ratio", [](SystemOptions& o) -> Field { return &o.tracking.reference_ratio; }},
   Tunable{"tracking.close_untracked_limit", [](SystemOptions& o) -> Field { return &o.tracking.close_untracked_limit; }},
   Tunable{"tracking.new_points_min", [](SystemOptions& o) -> Field { return &o.tracking.new_points_min; }},
   Tunable{"tracking.max_local_keyframes", [](SystemOptions& o) -> Field { return &o.tracking.max_local_keyframes; }},
