@@ -78,7 +78,7 @@ struct TrackingOptions {
   // takes the twin building from 230 to 208 keyframes at the same ATE, but fr1/rpy's start
   // frames 0-7 end at 16.1 mm median instead of 14.7, one of them at 44 mm.
   double reference_ratio = 0.75;
-  int new_points_min = 100;        // new close points per keyframe (then stop at far depth)
+  int new_points_min = 100;  // new close points per keyframe (then stop at far depth)
   std::size_t max_local_keyframes = 80;
   // A keyframe anchors the map: its pose and the points unprojected from its depth stay until
   // a BA moves them, and a live mapper gets to that BA frames later. A frame tracked with fewer
