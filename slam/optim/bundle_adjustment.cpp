@@ -13,6 +13,7 @@
 
 #include "slam/core/error.hpp"
 #include "slam/core/timing.hpp"
+#include "slam/optim/dense_schur_lm.hpp"
 #include "slam/optim/gravity_cost.hpp"
 #include "slam/optim/gyro_cost.hpp"
 
@@ -258,8 +259,7 @@ std::shared_ptr<ceres::ParameterBlockOrdering> points_first(BundleProblem& probl
   for (double* block : blocks)
     ordering->AddElementToGroup(block, 1);
   for (auto& point : problem.points) {
-    if (ceres_problem.HasParameterBlock(point.data()))
-      ordering->AddElementToGroup(point.data(), 0);
+    if (ceres_problem.HasParameterBlock(point.data())) ordering->AddElementToGroup(point.data(), 0);
   }
   return ordering;
 }
@@ -269,6 +269,20 @@ std::shared_ptr<ceres::ParameterBlockOrdering> points_first(BundleProblem& probl
 int solve(BundleProblem& problem, std::vector<double>& pose_params, Extras& x, const Intrinsics& k,
           const BundleOptions& options, const std::vector<std::uint8_t>& skip, bool robust,
           int iterations, const std::atomic<bool>* abort, BundleResult& result) {
+  const auto free_poses = std::count_if(problem.poses.begin(), problem.poses.end(),
+                                        [](const BundleProblem::Pose& p) { return !p.fixed; });
+  if (options.own_dense_solver && free_poses <= options.dense_schur_max_poses &&
+      dense_schur_applies(problem)) {
+    const DenseSchurPass pass{robust, iterations, options.chi2_stereo, options.chi2_mono};
+    const DenseSchurStats stats =
+        dense_schur_solve(problem, pose_params, x.delta, k, skip, pass, abort);
+    result.timing.build_ms += stats.build_ms;
+    result.timing.evaluate_ms += stats.evaluate_ms;
+    result.timing.linear_solver_ms += stats.linear_solver_ms;
+    if (result.iterations == 0) result.initial_cost = stats.initial_cost;
+    result.final_cost = stats.final_cost;
+    return stats.iterations;
+  }
   double& delta = x.delta;
   const Stopwatch build;
   ceres::Problem::Options popts;
@@ -322,8 +336,6 @@ int solve(BundleProblem& problem, std::vector<double>& pose_params, Extras& x, c
     ceres_problem.SetParameterUpperBound(&delta, 0, r.max - r.current);
   }
   ceres::Solver::Options sopts;
-  const auto free_poses = std::count_if(problem.poses.begin(), problem.poses.end(),
-                                        [](const BundleProblem::Pose& p) { return !p.fixed; });
   sopts.linear_solver_type =
       free_poses <= options.dense_schur_max_poses ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
   if (!problem.gravity.empty() || !problem.gyro.empty())

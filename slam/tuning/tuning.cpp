@@ -62,6 +62,7 @@ constexpr std::array kTunables{
   Tunable{"mapping.ba.iterations_robust", [](SystemOptions& o) -> Field { return &o.mapping.ba.iterations_robust; }},
   Tunable{"mapping.ba.iterations_refine", [](SystemOptions& o) -> Field { return &o.mapping.ba.iterations_refine; }},
   Tunable{"mapping.ba.dense_schur_max_poses", [](SystemOptions& o) -> Field { return &o.mapping.ba.dense_schur_max_poses; }},
+  Tunable{"mapping.ba.own_dense_solver", [](SystemOptions& o) -> Field { return &o.mapping.ba.own_dense_solver; }},
   Tunable{"mapping.keyframe_culling", [](SystemOptions& o) -> Field { return &o.mapping.keyframe_culling; }},
   Tunable{"mapping.redundancy", [](SystemOptions& o) -> Field { return &o.mapping.redundancy; }},
   Tunable{"mapping.estimate_readout", [](SystemOptions& o) -> Field { return &o.mapping.estimate_readout; }},
