@@ -311,7 +311,7 @@ DenseSchurStats dense_schur_solve(BundleProblem& problem, std::vector<double>& p
     for (const Eigen::Vector3d& g : normal.g_point)
       gradient = std::max(gradient, g.lpNorm<Eigen::Infinity>());
     if (gradient <= kGradientTolerance) break;
-    ++stats.iterations;
+    ++stats.iterations;  // not counted when it ends the solve (below), as Ceres counts
     double predicted = 0.0;
     watch.restart();
     const bool solved = solve_step(layout, normal, mu, step_reduced, step_point, predicted);
@@ -328,10 +328,14 @@ DenseSchurStats dense_schur_solve(BundleProblem& problem, std::vector<double>& p
       step_norm2 += step_point[j].squaredNorm();
       x_norm2 += s.points[j].squaredNorm();
     }
-    for (const SE3& pose : s.cam_from_world)
-      x_norm2 += pose.translation().squaredNorm() + 1.0;  // + the unit quaternion
-    if (std::sqrt(step_norm2) <= kParameterTolerance * (std::sqrt(x_norm2) + kParameterTolerance))
+    for (std::size_t i = 0; i < s.cam_from_world.size(); ++i) {
+      if (layout.pose_block[i] >= 0)  // + 1: the unit quaternion
+        x_norm2 += s.cam_from_world[i].translation().squaredNorm() + 1.0;
+    }
+    if (std::sqrt(step_norm2) <= kParameterTolerance * (std::sqrt(x_norm2) + kParameterTolerance)) {
+      --stats.iterations;
       break;
+    }
     State candidate = s;
     for (std::size_t i = 0; i < s.cam_from_world.size(); ++i) {
       const int block = layout.pose_block[i];
@@ -346,6 +350,12 @@ DenseSchurStats dense_schur_solve(BundleProblem& problem, std::vector<double>& p
     watch.restart();
     const double new_cost = evaluate(candidate, nullptr);
     stats.evaluate_ms += watch.elapsed_ms();
+    // Converged when the step changes the cost by less than this share, up or down; as Ceres
+    // does, the estimate stays where it was.
+    if (std::abs(cost - new_cost) <= kFunctionTolerance * cost) {
+      --stats.iterations;
+      break;
+    }
     const double gain = (cost - new_cost) / predicted;
     if (!std::isfinite(new_cost) || !(gain > kMinRelativeDecrease)) {
       mu *= nu;
@@ -353,14 +363,9 @@ DenseSchurStats dense_schur_solve(BundleProblem& problem, std::vector<double>& p
       if (mu > kMaxMu) break;
       continue;
     }
-    const double decrease = cost - new_cost, before = cost;
     s = std::move(candidate);
     mu = std::max(kMinMu, mu * std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * gain - 1.0, 3)));
     nu = 2.0;
-    if (decrease <= kFunctionTolerance * before) {
-      cost = new_cost;
-      break;
-    }
     watch.restart();
     cost = evaluate(s, &normal);
     stats.evaluate_ms += watch.elapsed_ms();

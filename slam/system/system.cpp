@@ -37,7 +37,7 @@ std::string describe_local_ba(const std::vector<mapping::LocalBaRun>& runs) {
   };
   return fmt::format(
       "local BA window median: {} free + {} fixed keyframes, {} points, {} observations, {} "
-      "iterations; time: problem {:.0f} %, Ceres preprocessing {:.0f} %, residuals and Jacobians "
+      "iterations; time: problem {:.0f} %, preprocessing {:.0f} %, residuals and Jacobians "
       "{:.0f} %, linear solver {:.0f} %",
       median([](const auto& r) { return r.free_poses; }),
       median([](const auto& r) { return r.fixed_poses; }),
