@@ -3,61 +3,12 @@
 // points, and the abort flag.
 #include <gtest/gtest.h>
 
-#include <random>
-
 #include "slam/optim/bundle_adjustment.hpp"
 #include "slam/optim/dense_schur_lm.hpp"
+#include "tests/slam/optim/bundle_window.hpp"
 
 namespace coloc::slam::optim {
 namespace {
-
-const Intrinsics kK{520.0, 515.0, 320.0, 240.0, 40.0};
-
-struct Window {
-  BundleProblem problem;
-  std::vector<SE3> truth;
-};
-
-// A window of `poses` keyframes walking and turning past 400 points, the first two fixed.
-// Observations are stereo-like or monocular in turn, 0.5 px of noise, one in forty off by
-// 20-40 px (wrong matches), each with its row's rolling-shutter shear; a few points are seen
-// once only, monocularly (their depth is unobservable: the damping must hold them).
-Window make_window(int poses, std::uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> noise(0.0, 0.5);
-  std::uniform_real_distribution<double> xy(-2.0, 2.0), z(2.0, 6.0), wrong(20.0, 40.0);
-  std::bernoulli_distribution sees(0.7), outlier(0.025), flip(0.5);
-  Window w;
-  for (int i = 0; i < poses; ++i) {
-    const SE3 truth(SO3::exp({0.01 * i, 0.05 * i, -0.01 * i}),
-                    Eigen::Vector3d(-0.12 * i, 0.02 * i, 0.01 * i));
-    w.truth.push_back(truth);
-    const Vector6d off = (Vector6d() << 0.01 * noise(rng), 0.01 * noise(rng), 0.01 * noise(rng),
-                          0.004 * noise(rng), 0.004 * noise(rng), 0.004 * noise(rng))
-                             .finished();
-    w.problem.poses.push_back({i < 2 ? truth : SE3::exp(off) * truth, i < 2});
-  }
-  for (std::uint32_t j = 0; j < 400; ++j) {
-    const Eigen::Vector3d world(xy(rng), xy(rng), z(rng));
-    w.problem.points.push_back(world + 0.02 * Eigen::Vector3d(noise(rng), noise(rng), noise(rng)));
-    const bool once = j % 50 == 0;
-    for (std::uint32_t i = 0; i < static_cast<std::uint32_t>(poses); ++i) {
-      if (once ? i != 3 : !sees(rng)) continue;
-      const Eigen::Vector3d pc = w.truth[i] * world;
-      BundleProblem::Observation o;
-      o.pose = i;
-      o.point = j;
-      o.pixel = {kK.fx * pc.x() / pc.z() + kK.cx + noise(rng),
-                 kK.fy * pc.y() / pc.z() + kK.cy + noise(rng)};
-      if (outlier(rng)) o.pixel.x() += flip(rng) ? wrong(rng) : -wrong(rng);
-      o.u_right = (once || (i + j) % 3 == 0) ? -1.0 : o.pixel.x() - kK.bf / pc.z();
-      o.inv_sigma2 = (j % 4 == 0) ? 1.0 / 1.44 : 1.0;  // a coarser pyramid level
-      o.shear = Eigen::Vector3d(0.3, -0.5, 0.1) * ((o.pixel.y() - 240.0) / 480.0);
-      w.problem.observations.push_back(o);
-    }
-  }
-  return w;
-}
 
 BundleOptions converging() {
   BundleOptions options;
@@ -68,14 +19,14 @@ BundleOptions converging() {
 
 TEST(DenseSchur, ReachesCeresOptimumAndFlagsTheSameOutliers) {
   for (const bool readout : {false, true}) {
-    Window w = make_window(12, 11);
+    Window w = make_window({.poses = 12, .seed = 11});
     w.problem.readout.estimate = readout;
     w.problem.readout.prior_sigma = 0.005;
     BundleProblem ceres = w.problem;
     BundleOptions ceres_options = converging();
     ceres_options.own_dense_solver = false;
-    const BundleResult ours = bundle_adjust(w.problem, kK, converging());
-    const BundleResult theirs = bundle_adjust(ceres, kK, ceres_options);
+    const BundleResult ours = bundle_adjust(w.problem, kWindowK, converging());
+    const BundleResult theirs = bundle_adjust(ceres, kWindowK, ceres_options);
     EXPECT_EQ(ours.outlier, theirs.outlier) << "readout " << readout;
     std::size_t flagged = 0;
     for (const std::uint8_t o : ours.outlier)
@@ -104,12 +55,12 @@ TEST(DenseSchur, ReachesCeresOptimumAndFlagsTheSameOutliers) {
 }
 
 TEST(DenseSchur, LeavesFixedAndUnobservedPosesWhereTheyAre) {
-  Window w = make_window(6, 3);
+  Window w = make_window({.poses = 6, .seed = 3});
   // One free pose more that no observation reaches: it is no unknown of this solve.
   const SE3 lonely(SO3::exp({0.2, 0.1, 0.0}), Eigen::Vector3d(1.0, 2.0, 3.0));
   w.problem.poses.push_back({lonely, false});
   const BundleProblem before = w.problem;
-  const BundleResult result = bundle_adjust(w.problem, kK);
+  const BundleResult result = bundle_adjust(w.problem, kWindowK);
   EXPECT_LT(result.final_cost, 0.2 * result.initial_cost);
   for (std::size_t i = 0; i < 2; ++i) {
     EXPECT_EQ(w.problem.poses[i].cam_from_world.translation(),
@@ -121,7 +72,7 @@ TEST(DenseSchur, LeavesFixedAndUnobservedPosesWhereTheyAre) {
 }
 
 TEST(DenseSchur, StopsBeforeTheFirstStepWhenAborted) {
-  Window w = make_window(6, 4);
+  Window w = make_window({.poses = 6, .seed = 4});
   const BundleProblem before = w.problem;
   std::vector<double> pose_params(7 * w.problem.poses.size());
   for (std::size_t i = 0; i < w.problem.poses.size(); ++i)
@@ -130,19 +81,20 @@ TEST(DenseSchur, StopsBeforeTheFirstStepWhenAborted) {
   double readout = 0.0;
   const std::atomic<bool> abort{true};
   const DenseSchurStats stats =
-      dense_schur_solve(w.problem, pose_params, readout, kK, skip, DenseSchurPass{}, &abort);
+      dense_schur_solve(w.problem, pose_params, readout, kWindowK, skip, DenseSchurPass{}, &abort);
   EXPECT_EQ(stats.iterations, 1);  // the evaluation at the start only
   EXPECT_EQ(stats.final_cost, stats.initial_cost);
   EXPECT_EQ(w.problem.points, before.points);
   // Not raised: it runs, and every observation skipped leaves nothing to solve.
   const std::atomic<bool> go{false};
-  EXPECT_GT(dense_schur_solve(w.problem, pose_params, readout, kK, skip, DenseSchurPass{}, &go)
-                .iterations,
-            2);
+  EXPECT_GT(
+      dense_schur_solve(w.problem, pose_params, readout, kWindowK, skip, DenseSchurPass{}, &go)
+          .iterations,
+      2);
   const std::vector<std::uint8_t> all(w.problem.observations.size(), 1);
-  EXPECT_EQ(
-      dense_schur_solve(w.problem, pose_params, readout, kK, all, DenseSchurPass{}, &go).iterations,
-      0);
+  EXPECT_EQ(dense_schur_solve(w.problem, pose_params, readout, kWindowK, all, DenseSchurPass{}, &go)
+                .iterations,
+            0);
 }
 
 // Problems with inertial terms stay with Ceres.
