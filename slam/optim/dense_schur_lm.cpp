@@ -26,29 +26,31 @@ constexpr double kBehindResidual = 1e3;
 
 // Which unknowns are in the solve, and the observations grouped by point.
 struct Layout {
-  std::vector<int> pose_block;  // per problem pose: its block in the reduced system, or -1
-  int pose_blocks = 0;
-  int readout = -1;  // index of the readout change in the reduced system, or -1
-  int size = 0;      // dimension of the reduced system
+  // Per problem pose: the offset of its 6 unknowns in the reduced system, or -1 (fixed, or no
+  // observation in this solve).
+  std::vector<Eigen::Index> pose_offset;
+  Eigen::Index readout = -1;  // index of the readout change in the reduced system, or -1
+  Eigen::Index size = 0;      // dimension of the reduced system
   std::vector<std::uint32_t> point_begin;  // CSR over points into `observations`
   std::vector<std::uint32_t> observations;
-  std::vector<int> block;  // per entry of `observations`: its pose's block, or -1
+  std::vector<Eigen::Index> offset;  // per entry of `observations`: its pose's offset, or -1
 };
 
 Layout make_layout(const BundleProblem& problem, const std::vector<std::uint8_t>& skip) {
   Layout l;
-  l.pose_block.assign(problem.poses.size(), -1);
+  l.pose_offset.assign(problem.poses.size(), -1);
   std::vector<std::uint32_t> count(problem.points.size() + 1, 0);
   bool sheared = false;
   for (std::size_t i = 0; i < problem.observations.size(); ++i) {
     if (skip[i]) continue;
     const BundleProblem::Observation& o = problem.observations[i];
-    if (!problem.poses[o.pose].fixed && l.pose_block[o.pose] < 0)
-      l.pose_block[o.pose] = l.pose_blocks++;
+    if (!problem.poses[o.pose].fixed && l.pose_offset[o.pose] < 0) {
+      l.pose_offset[o.pose] = l.size;
+      l.size += 6;
+    }
     ++count[o.point + 1];
     sheared = sheared || !o.shear.isZero();
   }
-  l.size = 6 * l.pose_blocks;
   if (problem.readout.estimate && sheared) l.readout = l.size++;
   for (std::size_t j = 1; j < count.size(); ++j)
     count[j] += count[j - 1];
@@ -58,9 +60,9 @@ Layout make_layout(const BundleProblem& problem, const std::vector<std::uint8_t>
     if (!skip[i])
       l.observations[count[problem.observations[i].point]++] = static_cast<std::uint32_t>(i);
   }
-  l.block.resize(l.observations.size());
+  l.offset.resize(l.observations.size());
   for (std::size_t a = 0; a < l.observations.size(); ++a)
-    l.block[a] = l.pose_block[problem.observations[l.observations[a]].pose];
+    l.offset[a] = l.pose_offset[problem.observations[l.observations[a]].pose];
   return l;
 }
 
@@ -158,10 +160,10 @@ struct Evaluator {
     const Eigen::Matrix3d wjx_t = weight * jx.transpose();
     n->v[o.point].noalias() += wjx_t * jx;
     n->g_point[o.point].noalias() += wjx_t * r;
-    const int block = layout.block[a];
-    if (block >= 0) {
-      n->u.block<6, 6>(6 * block, 6 * block).noalias() += wjp_t * jp;
-      n->g_reduced.segment<6>(6 * block).noalias() += wjp_t * r;
+    const Eigen::Index at = layout.offset[a];
+    if (at >= 0) {
+      n->u.block<6, 6>(at, at).noalias() += wjp_t * jp;
+      n->g_reduced.segment<6>(at).noalias() += wjp_t * r;
       n->w[a].noalias() = wjp_t * jx;
     } else {
       n->w[a].setZero();
@@ -169,11 +171,11 @@ struct Evaluator {
     if (sheared) {
       // residual = observed - predicted: it moves with the observation.
       const Eigen::Vector3d jd = inv_sigma * d_obs.cwiseProduct(Eigen::Vector3d(1.0, 1.0, stereo));
-      const int d = layout.readout;
+      const Eigen::Index d = layout.readout;
       n->u(d, d) += weight * jd.squaredNorm();
       n->g_reduced(d) += weight * jd.dot(r);
       n->wd[o.point].noalias() += weight * jd.transpose() * jx;
-      if (block >= 0) n->u.block<6, 1>(6 * block, d).noalias() += wjp_t * jd;
+      if (at >= 0) n->u.block<6, 1>(at, d).noalias() += wjp_t * jd;
     }
     return cost;
   }
@@ -201,7 +203,7 @@ bool solve_step(const Layout& layout, const Normal& n, double mu, Eigen::VectorX
                 std::vector<Eigen::Vector3d>& step_point, double& predicted) {
   Eigen::MatrixXd s = n.u;
   Eigen::VectorXd rhs = -n.g_reduced;
-  for (int i = 0; i < layout.size; ++i)
+  for (Eigen::Index i = 0; i < layout.size; ++i)
     s(i, i) += mu * clamped_diagonal(n.u(i, i));
   const std::size_t points = layout.point_begin.size() - 1;
   std::vector<Eigen::Matrix3d> v_inv(points);
@@ -228,16 +230,16 @@ bool solve_step(const Layout& layout, const Normal& n, double mu, Eigen::VectorX
       s(layout.readout, layout.readout) -= yd.dot(n.wd[j]);
     }
     for (std::uint32_t a = begin; a < end; ++a) {
-      const int block_a = layout.block[a];
-      if (block_a < 0) continue;
+      const Eigen::Index at_a = layout.offset[a];
+      if (at_a < 0) continue;
       const Matrix63& ya = y[a - begin];
-      rhs.segment<6>(6 * block_a).noalias() -= ya * rhs_point;
+      rhs.segment<6>(at_a).noalias() -= ya * rhs_point;
       if (layout.readout >= 0)
-        s.block<6, 1>(6 * block_a, layout.readout).noalias() -= ya * n.wd[j].transpose();
+        s.block<6, 1>(at_a, layout.readout).noalias() -= ya * n.wd[j].transpose();
       for (std::uint32_t b = begin; b < end; ++b) {
-        const int block_b = layout.block[b];
-        if (block_b < block_a) continue;  // the upper triangle only
-        s.block<6, 6>(6 * block_a, 6 * block_b).noalias() -= ya * n.w[b].transpose();
+        const Eigen::Index at_b = layout.offset[b];
+        if (at_b < at_a) continue;  // the upper triangle only
+        s.block<6, 6>(at_a, at_b).noalias() -= ya * n.w[b].transpose();
       }
     }
   }
@@ -247,7 +249,7 @@ bool solve_step(const Layout& layout, const Normal& n, double mu, Eigen::VectorX
   if (!step_reduced.allFinite()) return false;
   // Back-substitution, and the model's decrease 1/2 step^T (mu D step - g) over all unknowns.
   predicted = 0.0;
-  for (int i = 0; i < layout.size; ++i) {
+  for (Eigen::Index i = 0; i < layout.size; ++i) {
     const double d = step_reduced(i);
     predicted += 0.5 * d * (mu * clamped_diagonal(n.u(i, i)) * d - n.g_reduced(i));
   }
@@ -256,9 +258,8 @@ bool solve_step(const Layout& layout, const Normal& n, double mu, Eigen::VectorX
     if (!eliminated[j]) continue;
     Eigen::Vector3d rhs_point = -n.g_point[j];
     for (std::uint32_t a = layout.point_begin[j]; a < layout.point_begin[j + 1]; ++a) {
-      const int block = layout.block[a];
-      if (block >= 0)
-        rhs_point.noalias() -= n.w[a].transpose() * step_reduced.segment<6>(6 * block);
+      const Eigen::Index at = layout.offset[a];
+      if (at >= 0) rhs_point.noalias() -= n.w[a].transpose() * step_reduced.segment<6>(at);
     }
     if (layout.readout >= 0) rhs_point -= n.wd[j].transpose() * step_reduced(layout.readout);
     step_point[j].noalias() = v_inv[j] * rhs_point;
@@ -269,6 +270,63 @@ bool solve_step(const Layout& layout, const Normal& n, double mu, Eigen::VectorX
   }
   return true;
 }
+
+// The largest entry of the gradient: Ceres' gradient tolerance compares it.
+double gradient_max_norm(const Normal& n) {
+  double gradient = n.g_reduced.size() > 0 ? n.g_reduced.lpNorm<Eigen::Infinity>() : 0.0;
+  for (const Eigen::Vector3d& g : n.g_point)
+    gradient = std::max(gradient, g.lpNorm<Eigen::Infinity>());
+  return gradient;
+}
+
+// Ceres' parameter tolerance: the step is negligible against the estimate.
+bool negligible(const Layout& layout, const State& s, const Eigen::VectorXd& step_reduced,
+                const std::vector<Eigen::Vector3d>& step_point) {
+  double step_norm2 = step_reduced.squaredNorm(), x_norm2 = 0.0;
+  for (std::size_t j = 0; j < step_point.size(); ++j) {
+    step_norm2 += step_point[j].squaredNorm();
+    x_norm2 += s.points[j].squaredNorm();
+  }
+  for (std::size_t i = 0; i < s.cam_from_world.size(); ++i) {
+    if (layout.pose_offset[i] >= 0)  // + 1: the unit quaternion
+      x_norm2 += s.cam_from_world[i].translation().squaredNorm() + 1.0;
+  }
+  return std::sqrt(step_norm2) <= kParameterTolerance * (std::sqrt(x_norm2) + kParameterTolerance);
+}
+
+// `s` moved by a step: poses left-multiplied (PoseManifold), the readout held in its bounds.
+State stepped(const BundleProblem& problem, const Layout& layout, const State& s,
+              const Eigen::VectorXd& step_reduced, const std::vector<Eigen::Vector3d>& step_point) {
+  State moved = s;
+  for (std::size_t i = 0; i < s.cam_from_world.size(); ++i) {
+    const Eigen::Index at = layout.pose_offset[i];
+    if (at >= 0)
+      moved.cam_from_world[i] = SE3::exp(step_reduced.segment<6>(at)) * s.cam_from_world[i];
+  }
+  for (std::size_t j = 0; j < step_point.size(); ++j)
+    moved.points[j] += step_point[j];
+  if (layout.readout >= 0) {
+    const BundleProblem::Readout& r = problem.readout;
+    moved.delta =
+        std::clamp(s.delta + step_reduced(layout.readout), r.min - r.current, r.max - r.current);
+  }
+  return moved;
+}
+
+// The damping mu (1 / Ceres' trust-region radius) and its growth factor.
+struct Damping {
+  double mu = kInitialMu, nu = 2.0;
+  // After a rejected step; false when the region has shrunk to nothing.
+  bool reject() {
+    mu *= nu;
+    nu *= 2.0;
+    return mu <= kMaxMu;
+  }
+  void accept(double gain) {
+    mu = std::max(kMinMu, mu * std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * gain - 1.0, 3)));
+    nu = 2.0;
+  }
+};
 
 }  // namespace
 
@@ -291,8 +349,6 @@ DenseSchurStats dense_schur_solve(BundleProblem& problem, std::vector<double>& p
   s.points = problem.points;
   s.delta = readout_change;
   const Evaluator evaluate{problem, layout, k, pass};
-  const double delta_min = problem.readout.min - problem.readout.current;
-  const double delta_max = problem.readout.max - problem.readout.current;
   stats.build_ms = build.elapsed_ms();
 
   Stopwatch watch;
@@ -301,78 +357,43 @@ DenseSchurStats dense_schur_solve(BundleProblem& problem, std::vector<double>& p
   stats.evaluate_ms += watch.elapsed_ms();
   stats.initial_cost = cost;
   stats.iterations = 1;
-  double mu = kInitialMu, nu = 2.0;
+  Damping damping;
   Eigen::VectorXd step_reduced;
   std::vector<Eigen::Vector3d> step_point;
   for (int tried = 0; tried < pass.iterations; ++tried) {
-    if (abort && abort->load()) break;
-    double gradient =
-        normal.g_reduced.size() > 0 ? normal.g_reduced.lpNorm<Eigen::Infinity>() : 0.0;
-    for (const Eigen::Vector3d& g : normal.g_point)
-      gradient = std::max(gradient, g.lpNorm<Eigen::Infinity>());
-    if (gradient <= kGradientTolerance) break;
-    ++stats.iterations;  // not counted when it ends the solve (below), as Ceres counts
+    if ((abort && abort->load()) || gradient_max_norm(normal) <= kGradientTolerance) break;
     double predicted = 0.0;
     watch.restart();
-    const bool solved = solve_step(layout, normal, mu, step_reduced, step_point, predicted);
+    const bool solved = solve_step(layout, normal, damping.mu, step_reduced, step_point, predicted);
     stats.linear_solver_ms += watch.elapsed_ms();
     if (!solved || !(predicted > 0.0)) {
-      mu *= nu;
-      nu *= 2.0;
-      if (mu > kMaxMu) break;
+      ++stats.iterations;
+      if (!damping.reject()) break;
       continue;
     }
-    // Converged when the step is negligible against the estimate.
-    double step_norm2 = step_reduced.squaredNorm(), x_norm2 = 0.0;
-    for (std::size_t j = 0; j < step_point.size(); ++j) {
-      step_norm2 += step_point[j].squaredNorm();
-      x_norm2 += s.points[j].squaredNorm();
-    }
-    for (std::size_t i = 0; i < s.cam_from_world.size(); ++i) {
-      if (layout.pose_block[i] >= 0)  // + 1: the unit quaternion
-        x_norm2 += s.cam_from_world[i].translation().squaredNorm() + 1.0;
-    }
-    if (std::sqrt(step_norm2) <= kParameterTolerance * (std::sqrt(x_norm2) + kParameterTolerance)) {
-      --stats.iterations;
-      break;
-    }
-    State candidate = s;
-    for (std::size_t i = 0; i < s.cam_from_world.size(); ++i) {
-      const int block = layout.pose_block[i];
-      if (block >= 0)
-        candidate.cam_from_world[i] =
-            SE3::exp(step_reduced.segment<6>(6 * block)) * s.cam_from_world[i];
-    }
-    for (std::size_t j = 0; j < step_point.size(); ++j)
-      candidate.points[j] += step_point[j];
-    if (layout.readout >= 0)
-      candidate.delta = std::clamp(s.delta + step_reduced(layout.readout), delta_min, delta_max);
+    if (negligible(layout, s, step_reduced, step_point)) break;
+    State candidate = stepped(problem, layout, s, step_reduced, step_point);
     watch.restart();
     const double new_cost = evaluate(candidate, nullptr);
     stats.evaluate_ms += watch.elapsed_ms();
     // Converged when the step changes the cost by less than this share, up or down; as Ceres
-    // does, the estimate stays where it was.
-    if (std::abs(cost - new_cost) <= kFunctionTolerance * cost) {
-      --stats.iterations;
-      break;
-    }
+    // does, the estimate stays where it was (and the step is not counted).
+    if (std::abs(cost - new_cost) <= kFunctionTolerance * cost) break;
+    ++stats.iterations;
     const double gain = (cost - new_cost) / predicted;
     if (!std::isfinite(new_cost) || !(gain > kMinRelativeDecrease)) {
-      mu *= nu;
-      nu *= 2.0;
-      if (mu > kMaxMu) break;
+      if (!damping.reject()) break;
       continue;
     }
     s = std::move(candidate);
-    mu = std::max(kMinMu, mu * std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * gain - 1.0, 3)));
-    nu = 2.0;
+    damping.accept(gain);
     watch.restart();
     cost = evaluate(s, &normal);
     stats.evaluate_ms += watch.elapsed_ms();
   }
   stats.final_cost = cost;
   for (std::size_t i = 0; i < problem.poses.size(); ++i) {
-    if (layout.pose_block[i] >= 0) pose_to_array(s.cam_from_world[i], &pose_params[7 * i]);
+    if (layout.pose_offset[i] >= 0) pose_to_array(s.cam_from_world[i], &pose_params[7 * i]);
   }
   problem.points = std::move(s.points);
   if (layout.readout >= 0) readout_change = s.delta;

@@ -12,7 +12,7 @@ namespace {
 using coloc::slam::optim::BundleOptions;
 using coloc::slam::optim::BundleProblem;
 
-void BM_LocalBa(benchmark::State& state) {
+void local_ba(benchmark::State& state) {
   coloc::slam::optim::Window w = coloc::slam::optim::make_window(
       {.poses = 17, .fixed = 6, .points = 1935, .seen = 0.18, .seed = 5});
   w.problem.readout.estimate = state.range(1) == 1;
@@ -26,7 +26,7 @@ void BM_LocalBa(benchmark::State& state) {
   }
   state.counters["observations"] = static_cast<double>(w.problem.observations.size());
 }
-BENCHMARK(BM_LocalBa)
+BENCHMARK(local_ba)
     ->ArgsProduct({{1, 0}, {0, 1}})
     ->ArgNames({"ours", "readout"})
     ->Unit(benchmark::kMillisecond);
