@@ -264,25 +264,17 @@ std::shared_ptr<ceres::ParameterBlockOrdering> points_first(BundleProblem& probl
   return ordering;
 }
 
+std::ptrdiff_t free_poses(const BundleProblem& problem) {
+  return std::count_if(problem.poses.begin(), problem.poses.end(),
+                       [](const BundleProblem::Pose& p) { return !p.fixed; });
+}
+
 // One Ceres solve over the observations not flagged in `skip`; the readout change is a
 // parameter when the problem estimates the readout. Returns iterations run.
-int solve(BundleProblem& problem, std::vector<double>& pose_params, Extras& x, const Intrinsics& k,
-          const BundleOptions& options, const std::vector<std::uint8_t>& skip, bool robust,
-          int iterations, const std::atomic<bool>* abort, BundleResult& result) {
-  const auto free_poses = std::count_if(problem.poses.begin(), problem.poses.end(),
-                                        [](const BundleProblem::Pose& p) { return !p.fixed; });
-  if (options.own_dense_solver && free_poses <= options.dense_schur_max_poses &&
-      dense_schur_applies(problem)) {
-    const DenseSchurPass pass{robust, iterations, options.chi2_stereo, options.chi2_mono};
-    const DenseSchurStats stats =
-        dense_schur_solve(problem, pose_params, x.delta, k, skip, pass, abort);
-    result.timing.build_ms += stats.build_ms;
-    result.timing.evaluate_ms += stats.evaluate_ms;
-    result.timing.linear_solver_ms += stats.linear_solver_ms;
-    if (result.iterations == 0) result.initial_cost = stats.initial_cost;
-    result.final_cost = stats.final_cost;
-    return stats.iterations;
-  }
+int solve_ceres(BundleProblem& problem, std::vector<double>& pose_params, Extras& x,
+                const Intrinsics& k, const BundleOptions& options,
+                const std::vector<std::uint8_t>& skip, bool robust, int iterations,
+                const std::atomic<bool>* abort, BundleResult& result) {
   double& delta = x.delta;
   const Stopwatch build;
   ceres::Problem::Options popts;
@@ -336,8 +328,9 @@ int solve(BundleProblem& problem, std::vector<double>& pose_params, Extras& x, c
     ceres_problem.SetParameterUpperBound(&delta, 0, r.max - r.current);
   }
   ceres::Solver::Options sopts;
-  sopts.linear_solver_type =
-      free_poses <= options.dense_schur_max_poses ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
+  sopts.linear_solver_type = free_poses(problem) <= options.dense_schur_max_poses
+                                 ? ceres::DENSE_SCHUR
+                                 : ceres::SPARSE_SCHUR;
   if (!problem.gravity.empty() || !problem.gyro.empty())
     sopts.linear_solver_ordering = points_first(problem, ceres_problem);
   sopts.max_num_iterations = iterations;
@@ -355,6 +348,25 @@ int solve(BundleProblem& problem, std::vector<double>& pose_params, Extras& x, c
   if (result.iterations == 0) result.initial_cost = summary.initial_cost;
   result.final_cost = summary.final_cost;
   return static_cast<int>(summary.iterations.size());
+}
+
+// One solve: our dense-Schur LM where it applies (dense_schur_lm.hpp), Ceres otherwise.
+int solve(BundleProblem& problem, std::vector<double>& pose_params, Extras& x, const Intrinsics& k,
+          const BundleOptions& options, const std::vector<std::uint8_t>& skip, bool robust,
+          int iterations, const std::atomic<bool>* abort, BundleResult& result) {
+  if (!options.own_dense_solver || free_poses(problem) > options.dense_schur_max_poses ||
+      !dense_schur_applies(problem))
+    return solve_ceres(problem, pose_params, x, k, options, skip, robust, iterations, abort,
+                       result);
+  const DenseSchurPass pass{robust, iterations, options.chi2_stereo, options.chi2_mono};
+  const DenseSchurStats stats =
+      dense_schur_solve(problem, pose_params, x.delta, k, skip, pass, abort);
+  result.timing.build_ms += stats.build_ms;
+  result.timing.evaluate_ms += stats.evaluate_ms;
+  result.timing.linear_solver_ms += stats.linear_solver_ms;
+  if (result.iterations == 0) result.initial_cost = stats.initial_cost;
+  result.final_cost = stats.final_cost;
+  return stats.iterations;
 }
 
 // Flags (never unflags) the observations beyond the chi2 thresholds at the current estimate,
