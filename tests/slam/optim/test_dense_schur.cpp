@@ -71,6 +71,20 @@ TEST(DenseSchur, LeavesFixedAndUnobservedPosesWhereTheyAre) {
   EXPECT_LT(translation_distance(w.problem.poses.back().cam_from_world, lonely), 1e-12);
 }
 
+// Every pose fixed: the reduced system is empty and only the points move (triangulation).
+TEST(DenseSchur, WithEveryPoseFixedRefinesThePointsAlone) {
+  Window w = make_window({.poses = 6, .fixed = 6, .seed = 6});
+  BundleProblem ceres = w.problem;
+  BundleOptions ceres_options;
+  ceres_options.own_dense_solver = false;
+  const BundleResult ours = bundle_adjust(w.problem, kWindowK);
+  const BundleResult theirs = bundle_adjust(ceres, kWindowK, ceres_options);
+  EXPECT_LT(ours.final_cost, 0.5 * ours.initial_cost);
+  EXPECT_NEAR(ours.final_cost, theirs.final_cost, 1e-10 * theirs.final_cost);
+  for (std::size_t j = 0; j < w.problem.points.size(); ++j)
+    EXPECT_LT((w.problem.points[j] - ceres.points[j]).norm(), 1e-8) << j;
+}
+
 TEST(DenseSchur, StopsBeforeTheFirstStepWhenAborted) {
   Window w = make_window({.poses = 6, .seed = 4});
   const BundleProblem before = w.problem;
