@@ -24,9 +24,12 @@ std::optional<eval::AteResult> ate_of(const dataset::Sequence& sequence, const T
   }
 }
 
-// Keyframes mapped sequentially while an unknown readout is estimated, where the source can wait
-// (TrackingOptions::readout_settle_keyframes has the measurements behind it).
+// Keyframes mapped sequentially while an unknown readout is estimated
+// (TrackingOptions::readout_settle_keyframes has the measurements behind them): 30 where the
+// source can wait, 10 for a live camera or frames paced as one. The first local BAs take a few
+// milliseconds, so those waits delayed no frame by a frame interval (fr1/rpy paced, 24 runs).
 constexpr std::size_t kReadoutSettleKeyframes = 30;
+constexpr std::size_t kLiveReadoutSettleKeyframes = 10;
 
 // The gyro's noise figures as the settings give them (ORB-SLAM3's IMU.NoiseGyro, IMU.GyroWalk).
 mapping::GyroOptions gyro_options(const settings::Settings& settings) {
@@ -104,7 +107,8 @@ RunResult run_slam(dataset::FrameSource& frames, const dataset::Sequence* truth,
                    const std::function<void(const system::System&)>& finished) {
   system::SystemOptions options;
   options.tracking.wait_for_sink = run.sequential;
-  if (run.source_waits) options.tracking.readout_settle_keyframes = kReadoutSettleKeyframes;
+  options.tracking.readout_settle_keyframes =
+      run.source_waits ? kReadoutSettleKeyframes : kLiveReadoutSettleKeyframes;
   options.loop.enabled = run.loop;
   std::unique_ptr<system::System> owned;
   {

@@ -157,8 +157,10 @@ struct TrackingOptions {
   // (recorded frames read back to back: 4x real time) meets a sequence's first fast turns with
   // an estimate a few BAs behind, and below ~17 ms a partial compensation is worse than none.
   // With the ORB-SLAM3 TUM1 file on fr1/rpy, unpaced, 10 runs each: 0 keyframes 22.7 mm median
-  // (std 3.0), 20 17.1 (0.6), 30 15.3 (0.9), 40 14.9 (0.8). Only for sources that can wait:
-  // a live camera (or frames paced as one) would drop or delay frames, so keep it 0 there.
+  // (std 3.0), 20 17.1 (0.6), 30 15.3 (0.9), 40 14.9 (0.8). A live camera (or frames paced as
+  // one) must not wait long, but the first local BAs take a few milliseconds: paced, 16 runs
+  // each, 0 keyframes 16.4 mm median (max 21.5), 10 14.9 (max 17.6), with no frame handed out
+  // a frame interval late (pipeline::run_slam uses 30 and 10).
   std::size_t readout_settle_keyframes = 0;
   // Colour images are RGB (ORB-SLAM's Camera.RGB: 1), else BGR. Only the grey conversion uses it.
   bool rgb_input = false;
