@@ -596,6 +596,10 @@ Tracker::KeyframeNeed Tracker::need_keyframe() const {
       matches_inliers_ > options_.weak_reference_ratio * last_keyframe_inliers_;
   const bool c2 = (matches_inliers_ < ref_matches * ref_ratio || need_close || weak_reference) &&
                   matches_inliers_ > 15;
+  // The rule's inputs, to compare keyframe decisions with ORB-SLAM2's (docs/results).
+  spdlog::debug("tracking: frame {} keyframe rule: {} inliers, reference {} has {}, close {} / {}",
+                current_.id.value(), matches_inliers_, reference_.value(), ref_matches,
+                tracked_close, untracked_close);
   if (!((c1a || c1b || c1c) && c2)) return KeyframeNeed::kNo;
   if (mapping_idle) return KeyframeNeed::kYes;
   sink_->interrupt();
