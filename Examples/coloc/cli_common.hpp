@@ -5,10 +5,14 @@
 #include <Eigen/Core>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 
 namespace coloc::cli {
+
+// Degrees in one radian: the CLI prints angles in degrees.
+inline constexpr double kDegPerRad = 180.0 / std::numbers::pi;
 
 // Thrown by a verb that ran but whose result is a failure (exit code 1) with a message that
 // has already been decided; distinct from coloc::Error which names an input problem.

@@ -312,7 +312,7 @@ fs::path generate_synthetic(std::size_t n) {
   return path;
 }
 
-struct BenchArgs {
+struct E57BenchArgs {
   std::string file;
   std::size_t points = 20'000'000;
   std::size_t chunk = 1 << 16;
@@ -347,7 +347,7 @@ bool has_summed_fields(const e57::PointBuffer& b) {
          b.present(PointField::kColorRed) == b.present(PointField::kColorBlue);
 }
 
-void bench_e57(const BenchArgs& a) {
+void bench_e57(const E57BenchArgs& a) {
   const fs::path path = a.file.empty() ? generate_synthetic(a.points) : fs::path(a.file);
   // Opening (header, XML, model) counts in the whole-file figure: another reader's time to
   // read a file includes it too.
@@ -476,7 +476,7 @@ void add_e57_verb(CLI::App& app, CLI::App& bench) {
   ply.add_flag("--local", *local, "Keep each scan's local frame (do not apply its pose)");
   ply.callback([file, dir, local] { to_ply(*file, *dir, *local); });
 
-  auto args = std::make_shared<BenchArgs>();
+  auto args = std::make_shared<E57BenchArgs>();
   CLI::App& b = *bench.add_subcommand(
       "e57", "E57 read throughput (points/s) and peak memory; synthetic file if none given");
   b.alias("e57-read");

@@ -12,7 +12,6 @@
 #include <ctime>
 #include <exception>
 #include <filesystem>
-#include <numbers>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -34,8 +33,6 @@
 
 namespace coloc::cli {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 struct FuseArgs {
   // OSC node
@@ -66,7 +63,7 @@ fusion::FuserOptions fuser_options(const FuseArgs& a) {
   o.time_alignment = !a.no_time_alignment;
   o.hold_after = a.hold_after;
   o.max_correction_speed = a.max_speed;
-  o.max_correction_rate = a.max_rate_deg * kDeg;
+  o.max_correction_rate = a.max_rate_deg / kDegPerRad;
   o.check();
   // Effective values at start (OpenVINS habit), on stderr.
   spdlog::info(
@@ -270,7 +267,7 @@ void add_filter_options(CLI::App& cmd, FuseArgs& a) {
 
 // ---- coloc bench fusion -----------------------------------------------------------------------
 
-struct BenchArgs {
+struct FuseBenchArgs {
   fusion::SessionOptions session;
   std::string vive_log;
   int round_trips = 2000;
@@ -282,7 +279,7 @@ std::filesystem::path default_vive_log() {
          "vive_tracker_vs_lasertracker/20201002_Exp1_Drift/drift20minExperiment.txt";
 }
 
-void run_bench(BenchArgs a) {
+void run_bench(FuseBenchArgs a) {
   std::string noise_source = "default";
   const std::filesystem::path log =
       a.vive_log.empty() ? default_vive_log() : std::filesystem::path(a.vive_log);
@@ -306,10 +303,10 @@ void run_bench(BenchArgs a) {
       rows.push_back({{"name", method.name},
                       {"position_rmse_m", m.position_rmse},
                       {"position_p95_m", m.position_p95},
-                      {"rotation_rmse_deg", m.rotation_rmse / kDeg},
-                      {"rotation_p95_deg", m.rotation_p95 / kDeg},
+                      {"rotation_rmse_deg", m.rotation_rmse * kDegPerRad},
+                      {"rotation_p95_deg", m.rotation_p95 * kDegPerRad},
                       {"jitter_position_p99_m", m.jitter_position_p99},
-                      {"jitter_rotation_p99_deg", m.jitter_rotation_p99 / kDeg}});
+                      {"jitter_rotation_p99_deg", m.jitter_rotation_p99 * kDegPerRad}});
     }
     print_json({{"methods", rows},
                 {"fused_pose_us", {{"median", pose_cost.median}, {"p99", pose_cost.p99}}},
@@ -321,7 +318,7 @@ void run_bench(BenchArgs a) {
       "fusion: simulated %.0f s walk (seed %u), headset %.0f Hz drifting (%.1f mm/s bias, %s), "
       "global poses %.0f Hz, %.1f cm / %.2f deg noise, %.0f ms latency, %.0f %% outliers\n",
       s.duration, s.seed, s.headset_rate, 1e3 * s.drift.position_bias, noise_source.c_str(),
-      s.global_rate, 100.0 * s.global_position_sigma, s.global_rotation_sigma / kDeg,
+      s.global_rate, 100.0 * s.global_position_sigma, s.global_rotation_sigma * kDegPerRad,
       1e3 * s.global_latency, 100.0 * s.outlier_fraction);
   std::printf("%-20s %9s %9s %9s %9s %11s %11s\n", "method", "pos RMSE", "pos p95", "rot RMSE",
               "rot p95", "jitter p99", "jitter p99");
@@ -329,8 +326,9 @@ void run_bench(BenchArgs a) {
   for (const fusion::MethodResult& r : methods) {
     const fusion::ErrorMetrics& m = r.metrics;
     std::printf("%-20s %9.2f %9.2f %9.3f %9.3f %11.2f %11.3f\n", r.name.c_str(),
-                100.0 * m.position_rmse, 100.0 * m.position_p95, m.rotation_rmse / kDeg,
-                m.rotation_p95 / kDeg, 1e3 * m.jitter_position_p99, m.jitter_rotation_p99 / kDeg);
+                100.0 * m.position_rmse, 100.0 * m.position_p95, m.rotation_rmse * kDegPerRad,
+                m.rotation_p95 * kDegPerRad, 1e3 * m.jitter_position_p99,
+                m.jitter_rotation_p99 * kDegPerRad);
   }
   std::printf("%-20s median %8.3f us   p99 %8.3f us   (target < 2 us)\n", "one fused pose",
               pose_cost.median, pose_cost.p99);
@@ -458,7 +456,7 @@ void add_fuse_verb(CLI::App& app, CLI::App& bench) {
     }
   });
 
-  auto bargs = std::make_shared<BenchArgs>();
+  auto bargs = std::make_shared<FuseBenchArgs>();
   CLI::App& b = *bench.add_subcommand(
       "fusion", "Fusion accuracy on a simulated session, cost of one fused pose, OSC round trip");
   b.add_option("--duration", bargs->session.duration, "Simulated seconds")->capture_default_str();

@@ -9,7 +9,6 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
-#include <numbers>
 #include <sstream>
 
 #include "Examples/coloc/cli_common.hpp"
@@ -29,7 +28,6 @@ namespace {
 
 namespace he = coloc::registration::handeye;
 namespace fs = std::filesystem;
-constexpr double kDeg = 180.0 / std::numbers::pi;
 
 struct SolveArgs {
   std::string pairs, device, marker, output;
@@ -46,7 +44,7 @@ void print_pose(const char* name, const SE3& pose) {
   const Eigen::Vector3d& t = pose.translation();
   const Eigen::Vector3d w = pose.so3().log();
   std::printf("%s: t = [%.5f %.5f %.5f] m, rotation vector = [%.5f %.5f %.5f] rad (%.3f deg)\n",
-              name, t.x(), t.y(), t.z(), w.x(), w.y(), w.z(), w.norm() * kDeg);
+              name, t.x(), t.y(), t.z(), w.x(), w.y(), w.z(), w.norm() * kDegPerRad);
 }
 
 std::vector<he::Registration> load_registrations(const SolveArgs& a) {
@@ -77,14 +75,14 @@ void print_summary_json(const he::Summary& s) {
   }
   j["registrations"] = s.used.size();
   j["used"] = s.num_used;
-  j["residual_rotation_rms_deg"] = s.residuals.rotation_rms * kDeg;
+  j["residual_rotation_rms_deg"] = s.residuals.rotation_rms * kDegPerRad;
   j["residual_translation_rms_m"] = s.residuals.translation_rms;
-  j["conditioning"] = {{"axis_spread_deg", c.axis_spread * kDeg},
+  j["conditioning"] = {{"axis_spread_deg", c.axis_spread * kDegPerRad},
                        {"translation_min_singular_value", c.translation_min_singular_value},
                        {"pairs_used", c.pairs_used},
                        {"pairs_rejected", c.pairs_rejected},
                        {"pairs_small", c.pairs_small}};
-  j["X_rotation_stddev_deg"] = s.rotation_stddev * kDeg;
+  j["X_rotation_stddev_deg"] = s.rotation_stddev * kDegPerRad;
   j["X_translation_stddev_m"] = s.translation_stddev;
   j["message"] = s.message;
   print_json(j);
@@ -97,15 +95,15 @@ void print_summary_text(const he::Summary& s) {
   print_pose("M_c2v = vr_from_camera", s.vr_from_camera);
   if (s.scale_estimated) std::printf("sigma (marker scale): %.6f\n", s.sigma);
   std::printf("registrations used: %d of %zu\n", s.num_used, s.used.size());
-  std::printf("residual rms: %.3f deg, %.2f mm\n", s.residuals.rotation_rms * kDeg,
+  std::printf("residual rms: %.3f deg, %.2f mm\n", s.residuals.rotation_rms * kDegPerRad,
               s.residuals.translation_rms * 1e3);
-  std::printf("X uncertainty (1 sigma): %.3f deg, %.2f mm\n", s.rotation_stddev * kDeg,
+  std::printf("X uncertainty (1 sigma): %.3f deg, %.2f mm\n", s.rotation_stddev * kDegPerRad,
               s.translation_stddev * 1e3);
   const he::Conditioning& c = s.conditioning;
   std::printf(
       "conditioning: axis spread %.1f deg, translation min singular value %.3f, pairs used %d, "
       "rejected %d, too small %d\n",
-      c.axis_spread * kDeg, c.translation_min_singular_value, c.pairs_used, c.pairs_rejected,
+      c.axis_spread * kDegPerRad, c.translation_min_singular_value, c.pairs_used, c.pairs_rejected,
       c.pairs_small);
 }
 
@@ -202,8 +200,8 @@ void run_stability(const StabilityArgs& a) {
   if (a.json) {
     print_json({{"poses", pa.size()},
                 {"mean", matrix_json(d.mean)},
-                {"rotation_mean_abs_deg", d.rotation_mean_abs * kDeg},
-                {"rotation_rms_deg", d.rotation_rms * kDeg},
+                {"rotation_mean_abs_deg", d.rotation_mean_abs * kDegPerRad},
+                {"rotation_rms_deg", d.rotation_rms * kDegPerRad},
                 {"translation_mean_abs_m", d.translation_mean_abs},
                 {"translation_rms_m", d.translation_rms}});
     return;
@@ -211,8 +209,8 @@ void run_stability(const StabilityArgs& a) {
   std::printf("%zu matched poses\n", pa.size());
   print_pose("mean device_b_from_device_a (mu)", d.mean);
   std::printf("delta_ave: %.3f deg, %.2f mm; delta_rms: %.3f deg, %.2f mm\n",
-              d.rotation_mean_abs * kDeg, d.translation_mean_abs * 1e3, d.rotation_rms * kDeg,
-              d.translation_rms * 1e3);
+              d.rotation_mean_abs * kDegPerRad, d.translation_mean_abs * 1e3,
+              d.rotation_rms * kDegPerRad, d.translation_rms * 1e3);
 }
 
 void run_next(const SolveArgs& a) {
@@ -246,13 +244,14 @@ void run_franka(const std::string& dir, bool robust, bool json) {
   std::printf(
       "consistency of base_from_camera over %zu registrations: rotation mean %.3f rms "
       "%.3f max %.3f deg, translation mean %.2f rms %.2f max %.2f mm\n",
-      used.size(), d.rotation_mean_abs * kDeg, d.rotation_rms * kDeg, d.rotation_max * kDeg,
-      d.translation_mean_abs * 1e3, d.translation_rms * 1e3, d.translation_max * 1e3);
+      used.size(), d.rotation_mean_abs * kDegPerRad, d.rotation_rms * kDegPerRad,
+      d.rotation_max * kDegPerRad, d.translation_mean_abs * 1e3, d.translation_rms * 1e3,
+      d.translation_max * 1e3);
   for (const he::OpencvMethod& m : he::opencv_methods()) {
     const SE3 x = he::opencv_hand_eye(used, m.method);
     const he::Dispersion o = he::dispersion(he::vr_from_camera_per_registration(used, x));
     std::printf("  %-18s rotation rms %.3f deg, translation rms %.2f mm\n", m.name,
-                o.rotation_rms * kDeg, o.translation_rms * 1e3);
+                o.rotation_rms * kDegPerRad, o.translation_rms * 1e3);
   }
 }
 
@@ -320,7 +319,7 @@ void run_bench(int trials, int repeats) {
     for (const he::MethodErrors& m :
          he::compare_methods(sc.simulation, trials, sc.options, "ours", sc.opencv)) {
       std::printf("  %-20s %12.4f %12.4f %12.3f %12.3f", m.name.c_str(),
-                  quantile(m.rotation, 0.5) * kDeg, quantile(m.rotation, 0.9) * kDeg,
+                  quantile(m.rotation, 0.5) * kDegPerRad, quantile(m.rotation, 0.9) * kDegPerRad,
                   quantile(m.translation, 0.5) * 1e3, quantile(m.translation, 0.9) * 1e3);
       if (!m.sigma.empty()) std::printf(" %10.5f", quantile(m.sigma, 0.5));
       std::printf("\n");

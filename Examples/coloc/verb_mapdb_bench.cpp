@@ -30,7 +30,7 @@ namespace fs = std::filesystem;
 namespace mapdb = slam::mapdb;
 using Clock = std::chrono::steady_clock;
 
-struct BenchArgs {
+struct MapdbBenchArgs {
   int keyframes = 5000;
   int keypoints = 1000;
   fs::path dir;
@@ -96,7 +96,7 @@ struct Figures {
   double load_s = 0, load_peak_mib = 0;
 };
 
-void print(const BenchArgs& a, const Figures& f) {
+void print(const MapdbBenchArgs& a, const Figures& f) {
   const double n = static_cast<double>(f.keyframes);
   if (a.json) {
     print_json({{"keyframes", f.keyframes},
@@ -140,7 +140,7 @@ void print(const BenchArgs& a, const Figures& f) {
       f.load_s, 1e3 * f.load_s / n, f.load_peak_mib);
 }
 
-void run_bench(const BenchArgs& a) {
+void run_bench(const MapdbBenchArgs& a) {
   const slam::bow::Vocabulary vocabulary = load_vocabulary(a.vocabulary);
   mapdb::MapMetadata metadata;
   metadata.vocabulary_checksum = mapdb::vocabulary_checksum(vocabulary);
@@ -206,7 +206,7 @@ void run_bench(const BenchArgs& a) {
 }  // namespace
 
 void add_mapdb_bench(CLI::App& bench) {
-  auto a = std::make_shared<BenchArgs>();
+  auto a = std::make_shared<MapdbBenchArgs>();
   CLI::App& cmd = *bench.add_subcommand(
       "mapdb", "Map database: save/load time, bytes per keyframe, memory above the map");
   cmd.add_option("--keyframes", a->keyframes, "Keyframes of the synthetic map")

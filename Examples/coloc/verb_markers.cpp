@@ -255,7 +255,7 @@ void report_scan(const ScanArgs& a, const markers::ScanMarkersResult& r) {
   }
 }
 
-struct BenchArgs {
+struct MarkerBenchArgs {
   int frames = 200;
   std::string dictionary = "DICT_4X4_50";
 };
@@ -279,7 +279,7 @@ cv::Mat bench_frame(const PinholeCamera& camera, const cv::aruco::Dictionary& di
   return image;
 }
 
-void bench_markers(const BenchArgs& a) {
+void bench_markers(const MarkerBenchArgs& a) {
   const auto dictionary = markers::make_dictionary(a.dictionary);
   std::printf("marker detection, %s, %d synthetic frames with 3 markers each (one thread)\n",
               a.dictionary.c_str(), a.frames);
@@ -382,7 +382,7 @@ void add_markers_verb(CLI::App& app, CLI::App& bench) {
   scan.add_flag("--json", s->json, "Machine-readable summary on stdout");
   scan.callback([s] { scan_markers_verb(*s); });
 
-  auto b = std::make_shared<BenchArgs>();
+  auto b = std::make_shared<MarkerBenchArgs>();
   CLI::App& bm = *bench.add_subcommand(
       "markers", "Marker detection time per 640x480 keyframe and per 2048x2048 cube face");
   bm.add_option("--frames", b->frames, "Timed frames per case")->capture_default_str();

@@ -6,7 +6,6 @@
 #include <cstdio>
 #include <fstream>
 #include <memory>
-#include <numbers>
 #include <string>
 #include <vector>
 
@@ -24,8 +23,7 @@
 namespace coloc::cli {
 namespace {
 
-namespace fs = fusion::session;
-constexpr double kDeg = 180.0 / std::numbers::pi;
+namespace ses = fusion::session;
 
 struct SessionArgs {
   std::string config;
@@ -38,8 +36,8 @@ struct SessionArgs {
   bool json = false;
 };
 
-Json stats_json(const fs::SessionNodeStats& s) {
-  const fs::SessionStats& c = s.session;
+Json stats_json(const ses::SessionNodeStats& s) {
+  const ses::SessionStats& c = s.session;
   return {{"head_poses", c.head_poses},
           {"controller_poses", c.controller_poses},
           {"global_poses", c.global_poses},
@@ -65,12 +63,12 @@ Json stats_json(const fs::SessionNodeStats& s) {
             {"invalid_values", s.wire.invalid_values}}}};
 }
 
-void print_stats(const fs::SessionNodeStats& s, bool json) {
+void print_stats(const ses::SessionNodeStats& s, bool json) {
   if (json) {
     print_json(stats_json(s));
     return;
   }
-  const fs::SessionStats& c = s.session;
+  const ses::SessionStats& c = s.session;
   std::printf(
       "inputs: head %llu, controller %llu, global %llu, anchor %llu; published %llu (sent %llu), "
       "replies %llu, stale %llu, reloads %llu (failed %llu)\n",
@@ -101,47 +99,47 @@ void print_stats(const fs::SessionNodeStats& s, bool json) {
     std::printf("last dropped packet: %s\n", s.wire.last_error.c_str());
 }
 
-void log_config(const fs::Session& session) {
-  const fs::SessionConfig& c = session.config();
+void log_config(const ses::Session& session) {
+  const ses::SessionConfig& c = session.config();
   spdlog::info("session: anchor camera '{}' ({}), stale after {} s, {} participant(s)",
                c.anchor.camera,
-               c.anchor.mode == fs::AnchorMode::kFixed
+               c.anchor.mode == ses::AnchorMode::kFixed
                    ? "fixed"
                    : "localized on port " + std::to_string(c.anchor.localize_port),
                c.stale_after, c.participants.size());
-  for (const fs::ParticipantConfig& p : c.participants) {
+  for (const ses::ParticipantConfig& p : c.participants) {
     const SE3 w = session.snapshot(p.id).world_from_vr;
     spdlog::info(
         "  {} ({}, {}): calibration {}, {} controller(s), port {}, drift correction {}; "
         "world_from_vr t = ({:.3f}, {:.3f}, {:.3f})",
-        p.id, fs::to_string(p.kind), p.system.empty() ? "-" : p.system, p.calibration.string(),
+        p.id, ses::to_string(p.kind), p.system.empty() ? "-" : p.system, p.calibration.string(),
         p.controllers, p.port > 0 ? std::to_string(p.port) : "shared", p.drift_correction,
         w.translation().x(), w.translation().y(), w.translation().z());
   }
 }
 
 void run_session(const SessionArgs& a) {
-  fs::Session session(fs::read_session_config(a.config));
+  ses::Session session(ses::read_session_config(a.config));
   log_config(session);
-  fs::SessionNodeOptions options;
+  ses::SessionNodeOptions options;
   options.bind_address = a.bind;
   options.port = a.listen;
   options.publish = a.publish;
   options.watch_calibrations = !a.no_watch;
   std::unique_ptr<AtomicFile> log_file;
   std::ofstream log;
-  fs::LogSink sink;
+  ses::LogSink sink;
   if (!a.log.empty()) {
     log_file = std::make_unique<AtomicFile>(a.log);
     log.open(log_file->temp_path());
-    fs::write_log_header(log);
-    sink = [&log](const fs::LogRecord& r) { fs::write_log_record(log, r); };
+    ses::write_log_header(log);
+    sink = [&log](const ses::LogRecord& r) { ses::write_log_record(log, r); };
   }
   // Signals blocked before the node's thread starts, so only wait_for_stop_signal takes them.
   block_stop_signals();
-  fs::SessionNodeStats stats;
+  ses::SessionNodeStats stats;
   {
-    fs::SessionNode node(std::move(session), options, sink);
+    ses::SessionNode node(std::move(session), options, sink);
     node.start();
     spdlog::info(
         "session: OSC in on udp {}:{}, /coloc/users/<id>/... out to {} target(s); Ctrl-C "
@@ -160,7 +158,7 @@ void run_session(const SessionArgs& a) {
 }
 
 void run_check(const std::string& config, bool json) {
-  fs::Session session(fs::read_session_config(config));
+  ses::Session session(ses::read_session_config(config));
   if (!json) {
     log_config(session);
     std::printf("%s: %zu participant(s), calibrations readable\n", config.c_str(),
@@ -168,10 +166,10 @@ void run_check(const std::string& config, bool json) {
     return;
   }
   Json users = Json::array();
-  for (const fs::ParticipantConfig& p : session.config().participants) {
+  for (const ses::ParticipantConfig& p : session.config().participants) {
     users.push_back(
         {{"id", p.id},
-         {"kind", fs::to_string(p.kind)},
+         {"kind", ses::to_string(p.kind)},
          {"world_from_vr", json_row_major(session.snapshot(p.id).world_from_vr.matrix())}});
   }
   print_json({{"participants", users}});
@@ -191,12 +189,12 @@ std::pair<std::string, int> device_of(const std::string& text) {
 
 // The paper's Table 2: mean, mean absolute and RMS deviation, and the RMS deviation relative to
 // the mean.
-void print_stability(const fs::StabilityRow& r, bool json) {
+void print_stability(const ses::StabilityRow& r, bool json) {
   if (json) {
     print_json({{"poses", r.poses},
-                {"rotation_mean_deg", r.rotation_mean * kDeg},
-                {"rotation_mean_abs_deg", r.rotation_mean_abs * kDeg},
-                {"rotation_rms_deg", r.rotation_rms * kDeg},
+                {"rotation_mean_deg", r.rotation_mean * kDegPerRad},
+                {"rotation_mean_abs_deg", r.rotation_mean_abs * kDegPerRad},
+                {"rotation_rms_deg", r.rotation_rms * kDegPerRad},
                 {"translation_mean_m", r.translation_mean},
                 {"translation_mean_abs_m", r.translation_mean_abs},
                 {"translation_rms_m", r.translation_rms}});
@@ -204,20 +202,20 @@ void print_stability(const fs::StabilityRow& r, bool json) {
   }
   std::printf("locked controllers, %zu paired poses (An et al. 2023, Table 2)\n", r.poses);
   std::printf("| | mean mu | delta_ave | delta_rms | delta_rms / mu |\n|---|---|---|---|---|\n");
-  std::printf("| rotation | %.3f deg | %.3f deg | %.3f deg | %.2f %% |\n", r.rotation_mean * kDeg,
-              r.rotation_mean_abs * kDeg, r.rotation_rms * kDeg,
-              100.0 * r.rotation_rms / r.rotation_mean);
+  std::printf("| rotation | %.3f deg | %.3f deg | %.3f deg | %.2f %% |\n",
+              r.rotation_mean * kDegPerRad, r.rotation_mean_abs * kDegPerRad,
+              r.rotation_rms * kDegPerRad, 100.0 * r.rotation_rms / r.rotation_mean);
   std::printf("| translation | %.2f mm | %.2f mm | %.2f mm | %.2f %% |\n", r.translation_mean * 1e3,
               r.translation_mean_abs * 1e3, r.translation_rms * 1e3,
               100.0 * r.translation_rms / r.translation_mean);
 }
 
 void run_stability(const StabilityArgs& s) {
-  const fs::SessionConfig config = fs::read_session_config(s.config);
+  const ses::SessionConfig config = ses::read_session_config(s.config);
   const auto [a, na] = device_of(s.a);
   const auto [b, nb] = device_of(s.b);
-  print_stability(fs::locked_stability(fs::read_session_log(s.log), config, a, na, b, nb, s.max_dt),
-                  s.json);
+  print_stability(
+      ses::locked_stability(ses::read_session_log(s.log), config, a, na, b, nb, s.max_dt), s.json);
 }
 
 }  // namespace

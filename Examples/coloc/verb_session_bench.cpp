@@ -5,7 +5,6 @@
 
 #include <cstdio>
 #include <memory>
-#include <numbers>
 #include <string>
 
 #include "Examples/coloc/cli_common.hpp"
@@ -17,20 +16,19 @@
 namespace coloc::cli {
 namespace {
 
-namespace fs = fusion::session;
-constexpr double kDeg = 180.0 / std::numbers::pi;
+namespace ses = fusion::session;
 
-struct BenchArgs {
-  fs::LatencyBenchOptions latency;
+struct SessionBenchArgs {
+  ses::LatencyBenchOptions latency;
   bool accuracy = false;
-  fs::MultiUserOptions sim;
+  ses::MultiUserOptions sim;
   std::string walk;
   bool no_drift = false;
   bool no_gating = false;
   bool json = false;
 };
 
-Json latency_json(const fs::LatencyBenchReport& r) {
+Json latency_json(const ses::LatencyBenchReport& r) {
   return {{"sent", r.sent},
           {"published", r.published},
           {"received", r.received},
@@ -42,7 +40,7 @@ Json latency_json(const fs::LatencyBenchReport& r) {
           {"messages_per_second", r.messages_per_second}};
 }
 
-void print_latency(const fs::LatencyBenchOptions& o, const fs::LatencyBenchReport& r) {
+void print_latency(const ses::LatencyBenchOptions& o, const ses::LatencyBenchReport& r) {
   std::printf("session on loopback: %d participants x %.0f Hz x (head + %d controllers), %.0f s\n",
               o.participants, o.rate, o.controllers, o.seconds);
   std::printf(
@@ -55,39 +53,39 @@ void print_latency(const fs::LatencyBenchOptions& o, const fs::LatencyBenchRepor
               r.median_ms, r.p99_ms, r.max_ms, r.messages_per_second);
 }
 
-Json accuracy_json(const fs::MultiUserReport& r) {
+Json accuracy_json(const ses::MultiUserReport& r) {
   Json users = Json::array(), pairs = Json::array();
-  for (const fs::UserError& u : r.users) {
+  for (const ses::UserError& u : r.users) {
     users.push_back({{"id", u.id},
                      {"system", u.system},
                      {"head_position_rms_m", u.head_position_rms},
                      {"head_position_p95_m", u.head_position_p95},
-                     {"head_rotation_rms_deg", u.head_rotation_rms * kDeg},
+                     {"head_rotation_rms_deg", u.head_rotation_rms * kDegPerRad},
                      {"controller_position_rms_m", u.controller_position_rms},
                      {"controller_position_p95_m", u.controller_position_p95},
                      {"calibration_error_m", u.calibration_error}});
   }
-  for (const fs::PairError& p : r.pairs) {
+  for (const ses::PairError& p : r.pairs) {
     pairs.push_back({{"a", p.a},
                      {"b", p.b},
                      {"measured_position_rms_m", p.measured_position_rms},
                      {"predicted_position_rms_m", p.predicted_position_rms},
-                     {"measured_rotation_rms_deg", p.measured_rotation_rms * kDeg},
-                     {"predicted_rotation_rms_deg", p.predicted_rotation_rms * kDeg},
+                     {"measured_rotation_rms_deg", p.measured_rotation_rms * kDegPerRad},
+                     {"predicted_rotation_rms_deg", p.predicted_rotation_rms * kDegPerRad},
                      {"calibration_limited", p.calibration_limited}});
   }
-  const fs::StabilityRow& s = r.stability;
+  const ses::StabilityRow& s = r.stability;
   return {{"users", users},
           {"pairs", pairs},
           {"stability",
            {{"poses", s.poses},
-            {"rotation_mean_deg", s.rotation_mean * kDeg},
-            {"rotation_rms_deg", s.rotation_rms * kDeg},
+            {"rotation_mean_deg", s.rotation_mean * kDegPerRad},
+            {"rotation_rms_deg", s.rotation_rms * kDegPerRad},
             {"translation_mean_m", s.translation_mean},
             {"translation_rms_m", s.translation_rms}}}};
 }
 
-void print_accuracy(const fs::MultiUserOptions& o, const fs::MultiUserReport& r) {
+void print_accuracy(const ses::MultiUserOptions& o, const ses::MultiUserReport& r) {
   std::printf(
       "\nmulti-user simulation: %d participants, %d trial(s) x %.0f s, %s walk, drift %s, fuser "
       "gate %s\n",
@@ -96,43 +94,43 @@ void print_accuracy(const fs::MultiUserOptions& o, const fs::MultiUserReport& r)
   std::printf(
       "| user | system | head rms | head p95 | head rot rms | controllers rms | controllers "
       "p95 | calibration error |\n|---|---|---|---|---|---|---|---|\n");
-  for (const fs::UserError& u : r.users) {
+  for (const ses::UserError& u : r.users) {
     std::printf("| %s | %s | %.1f mm | %.1f mm | %.3f deg | %.1f mm | %.1f mm | %.1f mm |\n",
                 u.id.c_str(), u.system.c_str(), u.head_position_rms * 1e3,
-                u.head_position_p95 * 1e3, u.head_rotation_rms * kDeg,
+                u.head_position_p95 * 1e3, u.head_rotation_rms * kDegPerRad,
                 u.controller_position_rms * 1e3, u.controller_position_p95 * 1e3,
                 u.calibration_error * 1e3);
   }
   std::printf(
       "\n| pair | relative position rms: measured | predicted | ratio | rotation: measured | "
       "predicted | ratio | no drift |\n|---|---|---|---|---|---|---|---|\n");
-  for (const fs::PairError& p : r.pairs) {
+  for (const ses::PairError& p : r.pairs) {
     std::printf("| %s-%s | %.1f mm | %.1f mm | %.2f | %.3f deg | %.3f deg | %.2f | %s |\n",
                 p.a.c_str(), p.b.c_str(), p.measured_position_rms * 1e3,
                 p.predicted_position_rms * 1e3, p.measured_position_rms / p.predicted_position_rms,
-                p.measured_rotation_rms * kDeg, p.predicted_rotation_rms * kDeg,
+                p.measured_rotation_rms * kDegPerRad, p.predicted_rotation_rms * kDegPerRad,
                 p.measured_rotation_rms / p.predicted_rotation_rms,
                 p.calibration_limited ? "yes" : "");
   }
-  const fs::StabilityRow& s = r.stability;
+  const ses::StabilityRow& s = r.stability;
   std::printf("\nlocked controllers (%s controller 0 + %s controller 0), %zu poses, first trial\n",
               r.users[0].id.c_str(), r.users[1].id.c_str(), s.poses);
   std::printf("| | mean mu | delta_ave | delta_rms | delta_rms / mu |\n|---|---|---|---|---|\n");
-  std::printf("| rotation | %.3f deg | %.3f deg | %.3f deg | %.2f %% |\n", s.rotation_mean * kDeg,
-              s.rotation_mean_abs * kDeg, s.rotation_rms * kDeg,
-              100.0 * s.rotation_rms / s.rotation_mean);
+  std::printf("| rotation | %.3f deg | %.3f deg | %.3f deg | %.2f %% |\n",
+              s.rotation_mean * kDegPerRad, s.rotation_mean_abs * kDegPerRad,
+              s.rotation_rms * kDegPerRad, 100.0 * s.rotation_rms / s.rotation_mean);
   std::printf("| translation | %.2f mm | %.2f mm | %.2f mm | %.2f %% |\n", s.translation_mean * 1e3,
               s.translation_mean_abs * 1e3, s.translation_rms * 1e3,
               100.0 * s.translation_rms / s.translation_mean);
 }
 
-void run_bench(BenchArgs a) {
+void run_bench(SessionBenchArgs a) {
   Json out;
   if (a.accuracy) {
     if (!a.walk.empty()) a.sim.walk = read_tum_trajectory(a.walk);
     a.sim.drift = !a.no_drift;
     a.sim.fuser_gating = !a.no_gating;
-    const fs::MultiUserReport r = fs::simulate_multi_user(a.sim);
+    const ses::MultiUserReport r = ses::simulate_multi_user(a.sim);
     if (a.json)
       out["accuracy"] = accuracy_json(r);
     else
@@ -140,7 +138,7 @@ void run_bench(BenchArgs a) {
     if (a.json) print_json(out);
     return;
   }
-  const fs::LatencyBenchReport r = fs::bench_session_latency(a.latency);
+  const ses::LatencyBenchReport r = ses::bench_session_latency(a.latency);
   if (a.json) {
     print_json({{"latency", latency_json(r)}});
   } else {
@@ -151,7 +149,7 @@ void run_bench(BenchArgs a) {
 }  // namespace
 
 void add_session_bench(CLI::App& bench) {
-  auto a = std::make_shared<BenchArgs>();
+  auto a = std::make_shared<SessionBenchArgs>();
   CLI::App& cmd = *bench.add_subcommand(
       "session", "Shared session: loopback latency, or --accuracy (multi-user simulation)");
   cmd.add_option("--participants", a->latency.participants, "Latency: participants")

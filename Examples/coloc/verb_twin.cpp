@@ -85,7 +85,7 @@ void run_generate(const TwinArgs& a) {
   std::printf("  total     %.1f s\n", s.seconds_total);
 }
 
-struct BenchArgs {
+struct TwinBenchArgs {
   int width = 640;
   int height = 480;
   int frames = 60;
@@ -100,7 +100,7 @@ void print_stats(const char* what, const std::vector<double>& ms) {
               s.count);
 }
 
-void run_bench(const BenchArgs& a) {
+void run_bench(const TwinBenchArgs& a) {
   const twin::GenerateOptions o = twin::preset_options(twin::parse_preset(a.preset));
   twin::SceneOptions so;
   so.preset = o.preset;
@@ -218,7 +218,7 @@ void add_twin_verb(CLI::App& app, CLI::App& bench) {
   gen->add_flag("--json", args->json, "Machine-readable summary on stdout");
   gen->callback([args] { run_generate(*args); });
 
-  auto b = std::make_shared<BenchArgs>();
+  auto b = std::make_shared<TwinBenchArgs>();
   CLI::App* cmd = bench.add_subcommand("render", "OSMesa renderer: ms per frame and cube face");
   cmd->add_option("--width", b->width, "Frame width")->capture_default_str();
   cmd->add_option("--height", b->height, "Frame height")->capture_default_str();

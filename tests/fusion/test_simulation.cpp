@@ -8,8 +8,6 @@
 namespace coloc::fusion {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
-
 struct Results {
   ErrorMetrics raw, snap, paper, ours;
 };
@@ -57,7 +55,7 @@ TEST(Simulation, FusionBeatsRawHeadsetAndIsSmootherThanGlobalPoses) {
     EXPECT_LT(r.ours.position_rmse, r.paper.position_rmse);
     EXPECT_LT(r.ours.position_p95, r.paper.position_p95);
     EXPECT_LT(r.ours.position_rmse, 0.05);  // a few cm in a drifting 2-minute walk
-    EXPECT_LT(r.ours.rotation_rmse, 1.0 * kDeg);
+    EXPECT_LT(r.ours.rotation_rmse, std::numbers::pi / 180.0);
     // Smoothness: snapping jumps by the global noise (cm) at every pose; the fused poses by
     // far less.
     EXPECT_LT(r.ours.jitter_position_p99, 0.25 * r.snap.jitter_position_p99);

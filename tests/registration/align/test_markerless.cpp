@@ -20,10 +20,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path tum1_settings() {
-  return testing::source_file("Examples/RGB-D/TUM1.yaml");
-}
-
 // A map of TUM fr1/xyz: every 4th frame a keyframe at its ground-truth pose, storing its depth
 // downsampled by 4 as tracking does.
 struct RecordedMap {
@@ -35,7 +31,7 @@ struct RecordedMap {
 RecordedMap recorded_map(const fs::path& dir) {
   RecordedMap r;
   r.sequence = dataset::open_sequence(dir);
-  r.settings = settings::load_settings(tum1_settings());
+  r.settings = settings::load_settings(testing::source_file("Examples/RGB-D/TUM1.yaml"));
   Trajectory frames;
   for (std::size_t i = 0; i < r.sequence->size(); i += 4)
     frames.push_back({r.sequence->timestamp(i), SE3()});

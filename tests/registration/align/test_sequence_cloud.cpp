@@ -21,14 +21,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path tum1_settings() {
-  return testing::source_file("Examples/RGB-D/TUM1.yaml");
-}
-
 TEST(SequenceCloud, FusedCloudLandsOnTheDepthOfAFrameItDidNotUse) {
   COLOC_REQUIRE_DATA(dir, "tum_fr1_xyz_37f");
   const auto sequence = dataset::open_sequence(dir);
-  const settings::Settings settings = settings::load_settings(tum1_settings());
+  const settings::Settings settings =
+      settings::load_settings(testing::source_file("Examples/RGB-D/TUM1.yaml"));
   SequenceCloudOptions o;
   o.every = 4;  // frames 0, 4, 8, ...: frame 2 is not fused
   SequenceCloudStats stats;

@@ -55,15 +55,10 @@ const T& nearest(const std::vector<T>& v, double t, Time time_of) {
 
 using ::coloc::testing::tum_fr1_camera;
 
-fs::path source_dir() {
-  if (const char* env = std::getenv("COLOC_SOURCE_DIR"); env != nullptr && *env != '\0') return env;
-  return COLOC_TEST_SOURCE_DIR;
-}
-
 TEST(BowMatching, MatchesOnRealTumFramesAgreeWithGroundTruthAndDepth) {
   COLOC_REQUIRE_DATA(dir, "tum_fr1_xyz_37f");
   const Vocabulary vocabulary =
-      Vocabulary::load(source_dir() / "Vocabulary" / "coloc_orb_k10_L5.cvoc");
+      Vocabulary::load(coloc::testing::source_file("Vocabulary/coloc_orb_k10_L5.cvoc"));
   const auto rgb = read_list(dir / "rgb.txt");
   const auto depth = read_list(dir / "depth.txt");
   const Trajectory gt = read_tum_trajectory(dir / "groundtruth.txt");

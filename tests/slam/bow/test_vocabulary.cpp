@@ -198,13 +198,8 @@ TEST(Vocabulary, DamagedOrForeignFilesAreRejectedWithContext) {
   EXPECT_THROW(Vocabulary{}.save(dir / "empty_vocabulary.cvoc"), Error);
 }
 
-fs::path source_dir() {
-  if (const char* env = std::getenv("COLOC_SOURCE_DIR"); env != nullptr && *env != '\0') return env;
-  return COLOC_TEST_SOURCE_DIR;
-}
-
 TEST(Vocabulary, ShippedVocabularyLoads) {
-  const fs::path path = source_dir() / "Vocabulary" / "coloc_orb_k10_L5.cvoc";
+  const fs::path path = coloc::testing::source_file("Vocabulary/coloc_orb_k10_L5.cvoc");
   ASSERT_TRUE(fs::exists(path)) << path;
   const Vocabulary vocabulary = Vocabulary::load(path);
   EXPECT_EQ(vocabulary.info().branching, 10);

@@ -8,6 +8,7 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -29,6 +30,11 @@ struct LocalizeFixture {
 };
 
 inline constexpr double kFixtureSeconds = 6.0;
+
+// The rotation between two poses, degrees.
+inline double angle_deg(const SE3& a, const SE3& b) {
+  return (a.so3().inverse() * b.so3()).log().norm() * 180.0 / M_PI;
+}
 
 inline void build_fixture(const std::filesystem::path& dir) {
   namespace fs = std::filesystem;

@@ -18,6 +18,7 @@
 namespace coloc::slam::localize {
 namespace {
 
+using test::angle_deg;
 using test::fixture;
 
 struct Inputs {
@@ -53,10 +54,6 @@ std::optional<SE3> mapped_pose(const Trajectory& t, double time) {
   for (const auto& p : t)
     if (std::abs(p.timestamp - time) < 1e-4) return p.world_from_cam;
   return std::nullopt;
-}
-
-double angle_deg(const SE3& a, const SE3& b) {
-  return (a.so3().inverse() * b.so3()).log().norm() * 180.0 / M_PI;
 }
 
 std::uint64_t file_hash(const std::filesystem::path& path) {

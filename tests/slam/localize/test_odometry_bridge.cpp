@@ -16,6 +16,7 @@
 namespace coloc::slam::localize {
 namespace {
 
+using test::angle_deg;
 using test::fixture;
 
 class Walk {
@@ -57,10 +58,6 @@ class Walk {
 double position_error(const SE3& a_cam_from_world, const SE3& b_cam_from_world) {
   return (a_cam_from_world.inverse().translation() - b_cam_from_world.inverse().translation())
       .norm();
-}
-
-double angle_deg(const SE3& a, const SE3& b) {
-  return (a.so3().inverse() * b.so3()).log().norm() * 180.0 / M_PI;
 }
 
 // One second of the walk (30 frames) carried on from one anchor, frame to frame: every frame

@@ -6,6 +6,7 @@
 
 #include "slam/core/error.hpp"
 #include "slam/mapping/gravity.hpp"
+#include "tests/slam/mapping/imu_mount.hpp"
 
 namespace coloc::slam::mapping {
 namespace {
@@ -19,7 +20,7 @@ struct Motion {
   Eigen::Vector3d imu_position(double t) const { return 0.5 * accel * t * t; }
 };
 
-const SE3 kImuFromCam(SO3::exp({0.5, -0.2, 1.0}), Eigen::Vector3d(0.06, -0.05, 0.06));
+using test::kImuFromCam;
 
 std::vector<ImuSample> imu_log(const Motion& m, double from, double to, double skip_from = 1e9,
                                double skip_to = -1e9) {

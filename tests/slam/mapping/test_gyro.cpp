@@ -6,11 +6,12 @@
 
 #include "slam/core/error.hpp"
 #include "slam/mapping/gyro.hpp"
+#include "tests/slam/mapping/imu_mount.hpp"
 
 namespace coloc::slam::mapping {
 namespace {
 
-const SE3 kImuFromCam(SO3::exp({0.5, -0.2, 1.0}), Eigen::Vector3d(0.06, -0.05, 0.06));
+using test::kImuFromCam;
 
 // A rate that changes over time, sampled at 200 Hz with `bias` added (IMU frame).
 Eigen::Vector3d rate(double t) {

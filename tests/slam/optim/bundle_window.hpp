@@ -9,7 +9,9 @@
 
 namespace coloc::slam::optim {
 
-inline const Intrinsics kWindowK{520.0, 515.0, 320.0, 240.0, 40.0};
+// The solver tests' camera (fx, fy, cx, cy, bf).
+inline const Intrinsics kTestK{520.0, 515.0, 320.0, 240.0, 40.0};
+inline const Intrinsics& kWindowK = kTestK;
 
 struct Window {
   BundleProblem problem;

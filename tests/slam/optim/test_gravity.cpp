@@ -8,12 +8,11 @@
 
 #include "slam/optim/bundle_adjustment.hpp"
 #include "slam/optim/gravity_cost.hpp"
+#include "tests/slam/optim/bundle_window.hpp"
 #include "tests/slam/optim/square_walk.hpp"
 
 namespace coloc::slam::optim {
 namespace {
-
-const Intrinsics kK{520.0, 515.0, 320.0, 240.0, 40.0};
 
 TEST(Gravity, CostJacobiansMatchNumericalDerivatives) {
   double pose[7];
@@ -128,8 +127,9 @@ DriftedWalk drifted_walk(int n) {
         BundleProblem::Observation o;
         o.pose = static_cast<std::uint32_t>(k);
         o.point = point;
-        o.pixel = {kK.fx * pc.x() / pc.z() + kK.cx, kK.fy * pc.y() / pc.z() + kK.cy};
-        o.u_right = o.pixel.x() - kK.bf / pc.z();
+        o.pixel = {kTestK.fx * pc.x() / pc.z() + kTestK.cx,
+                   kTestK.fy * pc.y() / pc.z() + kTestK.cy};
+        o.u_right = o.pixel.x() - kTestK.bf / pc.z();
         problem.observations.push_back(o);
       }
     }
@@ -147,8 +147,8 @@ TEST(Gravity, BundleAdjustmentTakesTheTiltDriftOut) {
   BundleProblem with_gravity = problem;
   for (std::size_t i = 0; i < truth.size(); ++i)
     with_gravity.gravity.push_back(walk.at_rest(i, bias));
-  const BundleResult vision = bundle_adjust(problem, kK);
-  const BundleResult result = bundle_adjust(with_gravity, kK);
+  const BundleResult vision = bundle_adjust(problem, kTestK);
+  const BundleResult result = bundle_adjust(with_gravity, kTestK);
   EXPECT_NEAR(result.up_world.norm(), 1.0, 1e-9);
   ASSERT_EQ(result.accel_bias.size(), 1u);
   EXPECT_LT((result.accel_bias[0] - bias).norm(), 0.01) << result.accel_bias[0].transpose();
@@ -177,8 +177,8 @@ TEST(Gravity, EachRecordingHasItsOwnAccelerometerBias) {
     g.bias = i < walk.truth.size() / 2 ? 0 : 1;
     per_recording.gravity.push_back(g);
   }
-  const BundleResult one = bundle_adjust(shared, kK);
-  const BundleResult two = bundle_adjust(per_recording, kK);
+  const BundleResult one = bundle_adjust(shared, kTestK);
+  const BundleResult two = bundle_adjust(per_recording, kTestK);
   ASSERT_EQ(two.accel_bias.size(), 2u);
   for (std::size_t r = 0; r < 2; ++r)
     EXPECT_LT((two.accel_bias[r] - bias[r]).norm(), 0.03) << two.accel_bias[r].transpose();

@@ -9,12 +9,11 @@
 
 #include "slam/optim/bundle_adjustment.hpp"
 #include "slam/optim/gyro_cost.hpp"
+#include "tests/slam/optim/bundle_window.hpp"
 #include "tests/slam/optim/square_walk.hpp"
 
 namespace coloc::slam::optim {
 namespace {
-
-const Intrinsics kK{520.0, 515.0, 320.0, 240.0, 40.0};
 
 // Central differences of `cost` through the pose manifold (blocks 0 and 1) and plainly (2).
 void expect_jacobians_match(const ceres::CostFunction& cost, double* a, double* b, double* bias) {
@@ -117,9 +116,9 @@ BundleProblem walk_problem(const std::vector<SE3>& truth, std::mt19937& rng) {
         BundleProblem::Observation o;
         o.pose = static_cast<std::uint32_t>(k);
         o.point = point;
-        o.pixel = {kK.fx * pc.x() / pc.z() + kK.cx + pixel(rng),
-                   kK.fy * pc.y() / pc.z() + kK.cy + pixel(rng)};
-        o.u_right = o.pixel.x() - kK.bf / pc.z() + pixel(rng);
+        o.pixel = {kTestK.fx * pc.x() / pc.z() + kTestK.cx + pixel(rng),
+                   kTestK.fy * pc.y() / pc.z() + kTestK.cy + pixel(rng)};
+        o.u_right = o.pixel.x() - kTestK.bf / pc.z() + pixel(rng);
         problem.observations.push_back(o);
       }
     }
@@ -160,8 +159,8 @@ class GyroWalk : public ::testing::Test {
 TEST_F(GyroWalk, BundleAdjustmentHoldsTheHeadingVisionLetsWander) {
   BundleProblem with_gyro = vision_only_;
   add_gyro_pairs(with_gyro, truth_, rng_);
-  const BundleResult vision = bundle_adjust(vision_only_, kK);
-  const BundleResult result = bundle_adjust(with_gyro, kK);
+  const BundleResult vision = bundle_adjust(vision_only_, kTestK);
+  const BundleResult result = bundle_adjust(with_gyro, kTestK);
   const double vision_error = worst_rotation_error(vision_only_, truth_);
   const double gyro_error = worst_rotation_error(with_gyro, truth_);
   EXPECT_GT(vision_error, 0.003);  // the wander is there
@@ -184,8 +183,8 @@ TEST_F(GyroWalk, BundleAdjustmentDropsAPairTheFramesContradict) {
   problem.gyro[knocked].cam_a_from_cam_b =
       problem.gyro[knocked].cam_a_from_cam_b * SO3::exp({0.0, 0.174, 0.0});
   const BundleOptions global{.iterations_robust = 10, .iterations_refine = 20};  // global BA's
-  bundle_adjust(vision_only_, kK, global);
-  const BundleResult result = bundle_adjust(problem, kK, global);
+  bundle_adjust(vision_only_, kTestK, global);
+  const BundleResult result = bundle_adjust(problem, kTestK, global);
   ASSERT_EQ(result.gyro_outlier.size(), problem.gyro.size());
   for (std::size_t i = 0; i < problem.gyro.size(); ++i)
     EXPECT_EQ(result.gyro_outlier[i], i == knocked ? 1 : 0) << "pair " << i;

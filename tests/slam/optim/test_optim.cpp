@@ -9,11 +9,10 @@
 #include "slam/optim/bundle_adjustment.hpp"
 #include "slam/optim/pose_optimizer.hpp"
 #include "slam/optim/reprojection.hpp"
+#include "tests/slam/optim/bundle_window.hpp"
 
 namespace coloc::slam::optim {
 namespace {
-
-const Intrinsics kK{520.0, 515.0, 320.0, 240.0, 40.0};
 
 SE3 some_pose() {
   return SE3(SO3::exp({0.1, -0.2, 0.05}), Eigen::Vector3d(0.3, -0.1, 0.2));
@@ -25,8 +24,8 @@ TEST(Optim, CostJacobiansMatchNumericalDerivativesOnTheManifold) {
   double x[7];
   pose_to_array(pose, x);
   double pt[3] = {world.x(), world.y(), world.z()};
-  const StereoReprojectionCost stereo(kK, {300.0, 250.0, 290.0}, 1.0 / 1.2);
-  const MonoReprojectionCost mono(kK, {300.0, 250.0}, 1.0);
+  const StereoReprojectionCost stereo(kTestK, {300.0, 250.0, 290.0}, 1.0 / 1.2);
+  const MonoReprojectionCost mono(kTestK, {300.0, 250.0}, 1.0);
   PoseManifold manifold;
   auto check = [&](const ceres::CostFunction& cost, int rows) {
     const double* params[2] = {x, pt};
@@ -92,11 +91,12 @@ std::vector<PoseObservation> observe(const SE3& pose, int n, int outliers, std::
   for (int i = 0; i < n; ++i) {
     const double z = depth(rng);
     const Eigen::Vector2d uv(ux(rng), uy(rng));
-    const Eigen::Vector3d pc((uv.x() - kK.cx) * z / kK.fx, (uv.y() - kK.cy) * z / kK.fy, z);
+    const Eigen::Vector3d pc((uv.x() - kTestK.cx) * z / kTestK.fx,
+                             (uv.y() - kTestK.cy) * z / kTestK.fy, z);
     PoseObservation o;
     o.world = pose.inverse() * pc;
     o.pixel = uv + Eigen::Vector2d(noise(rng), noise(rng));
-    o.u_right = (i % 3 == 0) ? -1.0 : uv.x() - kK.bf / z + noise(rng);
+    o.u_right = (i % 3 == 0) ? -1.0 : uv.x() - kTestK.bf / z + noise(rng);
     if (i < outliers) o.pixel += Eigen::Vector2d(40.0, -30.0);
     obs.push_back(o);
   }
@@ -109,7 +109,7 @@ TEST(Optim, PoseOptimizationRecoversPoseAndFlagsOutliers) {
   const auto obs = observe(truth, 200, 30, rng);
   const SE3 start =
       SE3::exp((Vector6d() << 0.05, -0.03, 0.04, 0.03, -0.02, 0.02).finished()) * truth;
-  const auto r = optimize_pose(start, obs, kK);
+  const auto r = optimize_pose(start, obs, kTestK);
   EXPECT_LT(translation_distance(r.cam_from_world, truth), 0.005);
   EXPECT_LT(rotation_distance(r.cam_from_world, truth), 0.002);
   int flagged = 0;
@@ -117,7 +117,7 @@ TEST(Optim, PoseOptimizationRecoversPoseAndFlagsOutliers) {
     flagged += r.outlier[static_cast<std::size_t>(i)];
   EXPECT_EQ(flagged, 30);
   EXPECT_GE(r.inliers, 150);
-  EXPECT_THROW(optimize_pose(start, obs, kK, {.rounds = 0}), Error);
+  EXPECT_THROW(optimize_pose(start, obs, kTestK, {.rounds = 0}), Error);
 }
 
 Eigen::Vector3d centre(const SE3& cam_from_world) {
@@ -136,20 +136,20 @@ TEST(Optim, CentrePriorHoldsTheCentreOfAWeaklyObservedFrame) {
     const double z = depth(rng);
     const Eigen::Vector2d uv(u(rng), v(rng));
     PoseObservation o;
-    o.world = truth.inverse() *
-              Eigen::Vector3d((uv.x() - kK.cx) * z / kK.fx, (uv.y() - kK.cy) * z / kK.fy, z);
+    o.world = truth.inverse() * Eigen::Vector3d((uv.x() - kTestK.cx) * z / kTestK.fx,
+                                                (uv.y() - kTestK.cy) * z / kTestK.fy, z);
     o.pixel = uv + Eigen::Vector2d(noise(rng), noise(rng));
     obs.push_back(o);
   }
   const CentrePrior prior{.world_centre = centre(truth), .sigma_m = 0.01};
-  const auto free = optimize_pose(truth, obs, kK);
-  const auto held = optimize_pose(truth, obs, kK, {}, &prior);
+  const auto free = optimize_pose(truth, obs, kTestK);
+  const auto held = optimize_pose(truth, obs, kTestK, {}, &prior);
   const double free_m = (centre(free.cam_from_world) - centre(truth)).norm();
   const double held_m = (centre(held.cam_from_world) - centre(truth)).norm();
   EXPECT_GT(free_m, 0.03) << "the frame alone does not fix its centre";
   EXPECT_LT(held_m, 0.01);
   const CentrePrior no_sigma{.sigma_m = 0.0};
-  EXPECT_THROW(optimize_pose(truth, obs, kK, {}, &no_sigma), Error);
+  EXPECT_THROW(optimize_pose(truth, obs, kTestK, {}, &no_sigma), Error);
 }
 
 // A sharp frame's hundreds of inliers outweigh a prior 5 cm off: the prediction of a camera
@@ -160,8 +160,8 @@ TEST(Optim, CentrePriorLeavesAWellObservedFrameToItsPoints) {
   const auto obs = observe(truth, 200, 0, rng);
   const CentrePrior prior{.world_centre = centre(truth) + Eigen::Vector3d(0.05, 0.0, 0.0),
                           .sigma_m = 0.01};
-  const auto free = optimize_pose(truth, obs, kK);
-  const auto held = optimize_pose(truth, obs, kK, {}, &prior);
+  const auto free = optimize_pose(truth, obs, kTestK);
+  const auto held = optimize_pose(truth, obs, kTestK, {}, &prior);
   EXPECT_LT((centre(held.cam_from_world) - centre(free.cam_from_world)).norm(), 0.002);
   EXPECT_LT(rotation_distance(held.cam_from_world, free.cam_from_world), 0.001);
 }
@@ -194,14 +194,14 @@ TEST(Optim, LocalBundleAdjustmentReducesPoseAndPointErrors) {
       BundleProblem::Observation o;
       o.pose = i;
       o.point = static_cast<std::uint32_t>(j);
-      o.pixel = {kK.fx * pc.x() / pc.z() + kK.cx + 0.3 * noise(rng),
-                 kK.fy * pc.y() / pc.z() + kK.cy + 0.3 * noise(rng)};
-      o.u_right = (j % 2) ? -1.0 : o.pixel.x() - kK.bf / pc.z();
+      o.pixel = {kTestK.fx * pc.x() / pc.z() + kTestK.cx + 0.3 * noise(rng),
+                 kTestK.fy * pc.y() / pc.z() + kTestK.cy + 0.3 * noise(rng)};
+      o.u_right = (j % 2) ? -1.0 : o.pixel.x() - kTestK.bf / pc.z();
       problem.observations.push_back(o);
     }
   }
   BundleProblem sparse = problem, dense = problem;
-  const auto result = bundle_adjust(problem, kK);  // 3 free poses: our dense-Schur LM
+  const auto result = bundle_adjust(problem, kTestK);  // 3 free poses: our dense-Schur LM
   EXPECT_FALSE(result.aborted);
   EXPECT_LT(result.final_cost, result.initial_cost);
   // Ceres' dense and sparse factorizations (the latter for large problems) and our dense-Schur
@@ -209,8 +209,8 @@ TEST(Optim, LocalBundleAdjustmentReducesPoseAndPointErrors) {
   BundleOptions dense_options, sparse_options;
   dense_options.own_dense_solver = false;
   sparse_options.dense_schur_max_poses = 0;
-  const auto dense_result = bundle_adjust(dense, kK, dense_options);
-  const auto sparse_result = bundle_adjust(sparse, kK, sparse_options);
+  const auto dense_result = bundle_adjust(dense, kTestK, dense_options);
+  const auto sparse_result = bundle_adjust(sparse, kTestK, sparse_options);
   EXPECT_NEAR(sparse_result.final_cost, dense_result.final_cost, 1e-9 * result.final_cost);
   EXPECT_NEAR(result.final_cost, dense_result.final_cost, 1e-9 * result.final_cost);
   for (std::size_t i = 0; i < 5; ++i) {
@@ -229,7 +229,7 @@ TEST(Optim, LocalBundleAdjustmentReducesPoseAndPointErrors) {
   EXPECT_LT(err, 0.5 * initial_err);  // what is left is the measurement noise
   // A raised abort flag stops the solver at once.
   std::atomic<bool> abort{true};
-  const auto aborted = bundle_adjust(problem, kK, {}, &abort);
+  const auto aborted = bundle_adjust(problem, kTestK, {}, &abort);
   EXPECT_TRUE(aborted.aborted);
 }
 
@@ -240,7 +240,7 @@ TEST(Optim, ShutterCostJacobianOfTheReadoutMatchesNumericalDerivative) {
   pose_to_array(some_pose(), x);
   double pt[3] = {0.4, -0.3, 2.5};
   const Eigen::Vector3d obs(300.0, 250.0, 290.0), shear(0.6, -1.1, 0.4);
-  const ShutterReprojectionCost<3> cost(kK, obs, shear, 1.0 / 1.2);
+  const ShutterReprojectionCost<3> cost(kTestK, obs, shear, 1.0 / 1.2);
   const double delta = 0.004, h = 1e-7;
   auto eval = [&](double d, double* r, double** jac) {
     const double* params[3] = {x, pt, &d};
@@ -254,8 +254,8 @@ TEST(Optim, ShutterCostJacobianOfTheReadoutMatchesNumericalDerivative) {
   for (int r = 0; r < 3; ++r)
     EXPECT_NEAR(j2[r], (rp[r] - rm[r]) / (2 * h), 1e-4 * (1.0 + std::abs(j2[r]))) << r;
   EXPECT_GT(std::abs(j2[0]) + std::abs(j2[1]), 1.0);  // the shear does move the pixel
-  const Eigen::Vector3d shifted = shutter_shifted(kK, obs, shear, delta, nullptr);
-  const StereoReprojectionCost plain(kK, shifted, 1.0 / 1.2);
+  const Eigen::Vector3d shifted = shutter_shifted(kTestK, obs, shear, delta, nullptr);
+  const StereoReprojectionCost plain(kTestK, shifted, 1.0 / 1.2);
   double pr[3], pj0[21], pj1[9];
   double* pjac[2] = {pj0, pj1};
   const double* pparams[2] = {x, pt};
@@ -297,16 +297,16 @@ TEST(Optim, BundleAdjustmentEstimatesTheRollingShutterReadout) {
       Eigen::Vector3d raw = pc;
       Eigen::Vector3d shear = Eigen::Vector3d::Zero();
       for (int it = 0; it < 5; ++it) {
-        const double v = kK.fy * raw.y() / raw.z() + kK.cy;
+        const double v = kTestK.fy * raw.y() / raw.z() + kTestK.cy;
         shear = rates[i] * ((v - 0.5 * (kRows - 1)) / kRows);
         raw = SO3::exp(-shear * kReadout) * pc;  // compensation turns it back by +shear * readout
       }
       BundleProblem::Observation o;
       o.pose = i;
       o.point = static_cast<std::uint32_t>(j);
-      o.pixel = {kK.fx * raw.x() / raw.z() + kK.cx + noise(rng),
-                 kK.fy * raw.y() / raw.z() + kK.cy + noise(rng)};
-      o.u_right = o.pixel.x() - kK.bf / pc.z();
+      o.pixel = {kTestK.fx * raw.x() / raw.z() + kTestK.cx + noise(rng),
+                 kTestK.fy * raw.y() / raw.z() + kTestK.cy + noise(rng)};
+      o.u_right = o.pixel.x() - kTestK.bf / pc.z();
       o.shear = shear;
       problem.observations.push_back(o);
     }
@@ -315,18 +315,18 @@ TEST(Optim, BundleAdjustmentEstimatesTheRollingShutterReadout) {
   options.iterations_robust = 10;
   options.iterations_refine = 10;
   BundleProblem fixed = problem;
-  const BundleResult without = bundle_adjust(fixed, kK, options);
+  const BundleResult without = bundle_adjust(fixed, kTestK, options);
   EXPECT_EQ(without.readout_change, 0.0);
   problem.readout.estimate = true;
   // A prior far tighter than the data holds it; the bounds hold it within [min, max].
   BundleProblem held = problem;
   held.readout.prior_sigma = 1e-6;
-  EXPECT_LT(std::abs(bundle_adjust(held, kK, options).readout_change), 0.001);
+  EXPECT_LT(std::abs(bundle_adjust(held, kTestK, options).readout_change), 0.001);
   BundleProblem bounded = problem;
   bounded.readout.max = 0.01;
-  EXPECT_LE(bundle_adjust(bounded, kK, options).readout_change, 0.01 + 1e-9);
+  EXPECT_LE(bundle_adjust(bounded, kTestK, options).readout_change, 0.01 + 1e-9);
   problem.readout.prior_sigma = 0.05;  // no say: the data alone
-  const BundleResult with = bundle_adjust(problem, kK, options);
+  const BundleResult with = bundle_adjust(problem, kTestK, options);
   EXPECT_NEAR(with.readout_change, kReadout, 0.002);
   EXPECT_LT(with.final_cost, 0.5 * without.final_cost);
   for (std::size_t i = 2; i < 8; ++i) {

@@ -33,7 +33,8 @@ TEST(Tuning, KnownKeysSetTheirOptions) {
                      {"mapping.redundancy", 0.8},
                      {"mapping.queue_capacity", 2},
                      {"tracking.relocalization.min_inliers", 60},
-                     {"tracking.reference_ratio", 0.65}}),
+                     {"tracking.reference_ratio", 0.65},
+                     {"mapping.ba.own_dense_solver", 0}}),
                o);
   EXPECT_EQ(o.tracking.min_local_inliers, 40);
   EXPECT_FALSE(o.mapping.local_ba);
@@ -41,6 +42,7 @@ TEST(Tuning, KnownKeysSetTheirOptions) {
   EXPECT_EQ(o.mapping.queue_capacity, 2u);
   EXPECT_EQ(o.tracking.relocalization.min_inliers, 60);
   EXPECT_DOUBLE_EQ(o.tracking.reference_ratio, 0.65);
+  EXPECT_FALSE(o.mapping.ba.own_dense_solver);  // every BA back to Ceres
   // The effective values are printed by the same names.
   const std::string d = o.describe();
   EXPECT_NE(d.find("tracking.min_local_inliers 40\n"), std::string::npos) << d;
@@ -52,6 +54,7 @@ TEST(Tuning, UnknownNamesWrongTypesAndInvalidValuesAreErrors) {
   expect_rejected({{"tracking.min_local_inliers", 40.5}}, "Coloc.tracking.min_local_inliers");
   expect_rejected({{"mapping.local_ba", 2}}, "Coloc.mapping.local_ba");
   expect_rejected({{"mapping.queue_capacity", -1}}, "Coloc.mapping.queue_capacity");
+  expect_rejected({{"mapping.ba.own_dense_solver", 0.5}}, "Coloc.mapping.ba.own_dense_solver");
   // A value of the right type that the options reject: the file is named, the message says why.
   expect_rejected({{"tracking.min_local_inliers", 3}}, "");
   expect_rejected({{"tracking.reference_ratio", 1.5}}, "");
