@@ -22,7 +22,7 @@ void local_ba(benchmark::State& state) {
     state.PauseTiming();
     BundleProblem problem = w.problem;
     state.ResumeTiming();
-    benchmark::DoNotOptimize(bundle_adjust(problem, coloc::slam::optim::kWindowK, options));
+    benchmark::DoNotOptimize(bundle_adjust(problem, coloc::slam::optim::kTestK, options));
   }
   state.counters["observations"] = static_cast<double>(w.problem.observations.size());
 }

@@ -11,7 +11,6 @@ namespace coloc::slam::optim {
 
 // The solver tests' camera (fx, fy, cx, cy, bf).
 inline const Intrinsics kTestK{520.0, 515.0, 320.0, 240.0, 40.0};
-inline const Intrinsics& kWindowK = kTestK;
 
 struct Window {
   BundleProblem problem;
@@ -56,10 +55,10 @@ inline Window make_window(const WindowShape& shape) {
       BundleProblem::Observation o;
       o.pose = i;
       o.point = j;
-      o.pixel = {kWindowK.fx * pc.x() / pc.z() + kWindowK.cx + noise(rng),
-                 kWindowK.fy * pc.y() / pc.z() + kWindowK.cy + noise(rng)};
+      o.pixel = {kTestK.fx * pc.x() / pc.z() + kTestK.cx + noise(rng),
+                 kTestK.fy * pc.y() / pc.z() + kTestK.cy + noise(rng)};
       if (outlier(rng)) o.pixel.x() += flip(rng) ? wrong(rng) : -wrong(rng);
-      o.u_right = (once || (i + j) % 3 == 0) ? -1.0 : o.pixel.x() - kWindowK.bf / pc.z();
+      o.u_right = (once || (i + j) % 3 == 0) ? -1.0 : o.pixel.x() - kTestK.bf / pc.z();
       o.inv_sigma2 = (j % 4 == 0) ? 1.0 / 1.44 : 1.0;  // a coarser pyramid level
       o.shear = Eigen::Vector3d(0.3, -0.5, 0.1) * ((o.pixel.y() - 240.0) / 480.0);
       w.problem.observations.push_back(o);

@@ -25,8 +25,8 @@ TEST(DenseSchur, ReachesCeresOptimumAndFlagsTheSameOutliers) {
     BundleProblem ceres = w.problem;
     BundleOptions ceres_options = converging();
     ceres_options.own_dense_solver = false;
-    const BundleResult ours = bundle_adjust(w.problem, kWindowK, converging());
-    const BundleResult theirs = bundle_adjust(ceres, kWindowK, ceres_options);
+    const BundleResult ours = bundle_adjust(w.problem, kTestK, converging());
+    const BundleResult theirs = bundle_adjust(ceres, kTestK, ceres_options);
     EXPECT_EQ(ours.outlier, theirs.outlier) << "readout " << readout;
     std::size_t flagged = 0;
     for (const std::uint8_t o : ours.outlier)
@@ -60,7 +60,7 @@ TEST(DenseSchur, LeavesFixedAndUnobservedPosesWhereTheyAre) {
   const SE3 lonely(SO3::exp({0.2, 0.1, 0.0}), Eigen::Vector3d(1.0, 2.0, 3.0));
   w.problem.poses.push_back({lonely, false});
   const BundleProblem before = w.problem;
-  const BundleResult result = bundle_adjust(w.problem, kWindowK);
+  const BundleResult result = bundle_adjust(w.problem, kTestK);
   EXPECT_LT(result.final_cost, 0.2 * result.initial_cost);
   for (std::size_t i = 0; i < 2; ++i) {
     EXPECT_EQ(w.problem.poses[i].cam_from_world.translation(),
@@ -77,8 +77,8 @@ TEST(DenseSchur, WithEveryPoseFixedRefinesThePointsAlone) {
   BundleProblem ceres = w.problem;
   BundleOptions ceres_options;
   ceres_options.own_dense_solver = false;
-  const BundleResult ours = bundle_adjust(w.problem, kWindowK);
-  const BundleResult theirs = bundle_adjust(ceres, kWindowK, ceres_options);
+  const BundleResult ours = bundle_adjust(w.problem, kTestK);
+  const BundleResult theirs = bundle_adjust(ceres, kTestK, ceres_options);
   EXPECT_LT(ours.final_cost, 0.5 * ours.initial_cost);
   EXPECT_NEAR(ours.final_cost, theirs.final_cost, 1e-10 * theirs.final_cost);
   for (std::size_t j = 0; j < w.problem.points.size(); ++j)
@@ -95,18 +95,17 @@ TEST(DenseSchur, StopsBeforeTheFirstStepWhenAborted) {
   double readout = 0.0;
   const std::atomic<bool> abort{true};
   const DenseSchurStats stats =
-      dense_schur_solve(w.problem, pose_params, readout, kWindowK, skip, DenseSchurPass{}, &abort);
+      dense_schur_solve(w.problem, pose_params, readout, kTestK, skip, DenseSchurPass{}, &abort);
   EXPECT_EQ(stats.iterations, 1);  // the evaluation at the start only
   EXPECT_EQ(stats.final_cost, stats.initial_cost);
   EXPECT_EQ(w.problem.points, before.points);
   // Not raised: it runs, and every observation skipped leaves nothing to solve.
   const std::atomic<bool> go{false};
-  EXPECT_GT(
-      dense_schur_solve(w.problem, pose_params, readout, kWindowK, skip, DenseSchurPass{}, &go)
-          .iterations,
-      2);
+  EXPECT_GT(dense_schur_solve(w.problem, pose_params, readout, kTestK, skip, DenseSchurPass{}, &go)
+                .iterations,
+            2);
   const std::vector<std::uint8_t> all(w.problem.observations.size(), 1);
-  EXPECT_EQ(dense_schur_solve(w.problem, pose_params, readout, kWindowK, all, DenseSchurPass{}, &go)
+  EXPECT_EQ(dense_schur_solve(w.problem, pose_params, readout, kTestK, all, DenseSchurPass{}, &go)
                 .iterations,
             0);
 }
