@@ -74,7 +74,7 @@ inline void build_fixture(const std::filesystem::path& dir) {
 
 inline const LocalizeFixture& fixture() {
   namespace fs = std::filesystem;
-  static const LocalizeFixture f = [] {
+  static const LocalizeFixture kFixture = [] {
     const fs::path dir = fs::path(COLOC_LOCALIZE_FIXTURE_DIR) / "twin_room_6s_v2";
     fs::create_directories(dir.parent_path());
     if (!fs::exists(dir / "map.db")) {
@@ -97,7 +97,7 @@ inline const LocalizeFixture& fixture() {
     out.keyframes = mapdb::read_keyframe_trajectory(out.map);
     return out;
   }();
-  return f;
+  return kFixture;
 }
 
 }  // namespace coloc::slam::localize::test
