@@ -5,7 +5,7 @@ set(COLOC_WARNINGS -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wcast-a
                    -Woverloaded-virtual -Wnull-dereference -Wimplicit-fallthrough
                    # C++20 designated initializers leave defaulted members out on purpose.
                    -Wno-missing-field-initializers)
-# A unity build (CMAKE_UNITY_BUILD, as scripts/test builds) #includes each source into a batch
+# A unity build (CMAKE_UNITY_BUILD: a fresh scripts/build tree) #includes each source into a batch
 # file; GCC then takes a class holding a type of that source's anonymous namespace for a header
 # that leaks an internal type, which it is not.
 if(CMAKE_UNITY_BUILD)
