@@ -347,6 +347,53 @@ bool has_summed_fields(const e57::PointBuffer& b) {
          b.present(PointField::kColorRed) == b.present(PointField::kColorBlue);
 }
 
+// One scan read `a.repeats` times: the best wall and CPU times, the points, and the sums of the
+// last pass added to `sums` (what the reader delivered, so it cannot be optimised away).
+struct ScanRead {
+  double wall = 1e30;
+  double cpu = 1e30;
+  std::uint64_t points = 0;
+};
+
+ScanRead read_scan(const e57::Reader& r, std::size_t s, const E57BenchArgs& a, Sums& sums) {
+  constexpr std::array<PointField, 6> kSummed = {PointField::kCartesianX, PointField::kCartesianY,
+                                                 PointField::kCartesianZ, PointField::kColorRed,
+                                                 PointField::kColorGreen, PointField::kColorBlue};
+  // ScaledInteger XYZ + colour where present (the DESIGN target), else whatever there is.
+  std::uint32_t mask = 0;
+  for (const PointField f : kSummed)
+    mask |= field_bit(f);
+  mask &= r.scans()[s].field_mask;
+  ScanRead best;
+  Sums scan_sums{};
+  for (int rep = 0; rep < a.repeats; ++rep) {
+    // The reader decodes on this thread only, so its CPU time is the read's cost without the
+    // time other processes held the core.
+    const Stopwatch wall_watch;
+    const ThreadCpuStopwatch cpu_watch;
+    e57::PointStream stream = r.open_points(s, mask);
+    e57::PointBuffer chunk;
+    best.points = 0;
+    scan_sums = sums;
+    while (const std::size_t n = stream.read(chunk, a.chunk)) {
+      best.points += n;
+      if (!has_summed_fields(chunk)) continue;
+      add_lanes(chunk.cartesian_x.data(), n, scan_sums[0]);
+      add_lanes(chunk.cartesian_y.data(), n, scan_sums[1]);
+      add_lanes(chunk.cartesian_z.data(), n, scan_sums[2]);
+      if (chunk.present(PointField::kColorRed)) {
+        add_lanes(chunk.color_red.data(), n, scan_sums[3]);
+        add_lanes(chunk.color_green.data(), n, scan_sums[4]);
+        add_lanes(chunk.color_blue.data(), n, scan_sums[5]);
+      }
+    }
+    best.wall = std::min(best.wall, wall_watch.elapsed_seconds());
+    best.cpu = std::min(best.cpu, cpu_watch.elapsed_seconds());
+  }
+  sums = scan_sums;
+  return best;
+}
+
 void bench_e57(const E57BenchArgs& a) {
   const fs::path path = a.file.empty() ? generate_synthetic(a.points) : fs::path(a.file);
   // Opening (header, XML, model) counts in the whole-file figure: another reader's time to
@@ -359,62 +406,26 @@ void bench_e57(const E57BenchArgs& a) {
   std::printf("file: %s (%.1f MB), CRC check fraction %.2f, chunk %zu points\n",
               path.string().c_str(), static_cast<double>(fs::file_size(path)) / 1e6, a.crc_fraction,
               a.chunk);
-  constexpr std::array<PointField, 6> kSummed = {PointField::kCartesianX, PointField::kCartesianY,
-                                                 PointField::kCartesianZ, PointField::kColorRed,
-                                                 PointField::kColorGreen, PointField::kColorBlue};
-  // Every value of the last pass is summed (see Sums), so nothing is optimised away and the
-  // sums can be compared with another reader's on the same file.
+  // Every value of the last pass is summed (see Sums), so the sums can be compared with another
+  // reader's on the same file.
   Sums sums{};
   std::uint64_t total_points = 0;
   double total_wall = open_wall;
   double total_cpu = open_cpu;
   for (std::size_t s = 0; s < r.scans().size(); ++s) {
-    // ScaledInteger XYZ + colour where present (the DESIGN target), else whatever there is.
-    std::uint32_t mask = 0;
-    for (const PointField f : kSummed)
-      mask |= field_bit(f);
-    mask &= r.scans()[s].field_mask;
-    double best_wall = 1e30;
-    double best_cpu = 1e30;
-    std::uint64_t n_points = 0;
-    Sums scan_sums{};
     reset_peak_memory();
     const double base = peak_memory_mib();
-    for (int rep = 0; rep < a.repeats; ++rep) {
-      // The reader decodes on this thread only, so its CPU time is the read's cost without the
-      // time other processes held the core.
-      const Stopwatch wall_watch;
-      const ThreadCpuStopwatch cpu_watch;
-      e57::PointStream stream = r.open_points(s, mask);
-      e57::PointBuffer chunk;
-      n_points = 0;
-      scan_sums = sums;
-      while (const std::size_t n = stream.read(chunk, a.chunk)) {
-        n_points += n;
-        if (!has_summed_fields(chunk)) continue;
-        add_lanes(chunk.cartesian_x.data(), n, scan_sums[0]);
-        add_lanes(chunk.cartesian_y.data(), n, scan_sums[1]);
-        add_lanes(chunk.cartesian_z.data(), n, scan_sums[2]);
-        if (chunk.present(PointField::kColorRed)) {
-          add_lanes(chunk.color_red.data(), n, scan_sums[3]);
-          add_lanes(chunk.color_green.data(), n, scan_sums[4]);
-          add_lanes(chunk.color_blue.data(), n, scan_sums[5]);
-        }
-      }
-      best_wall = std::min(best_wall, wall_watch.elapsed_seconds());
-      best_cpu = std::min(best_cpu, cpu_watch.elapsed_seconds());
-    }
-    sums = scan_sums;
-    total_points += n_points;
-    total_wall += best_wall;
-    total_cpu += best_cpu;
+    const ScanRead scan = read_scan(r, s, a, sums);
+    total_points += scan.points;
+    total_wall += scan.wall;
+    total_cpu += scan.cpu;
     std::printf(
         "scan %zu '%s': %llu points; best of %d: %.1f ms wall = %.1f M points/s, %.1f ms CPU = "
         "%.1f M points/s; peak memory during reads %.1f MiB (%.1f MiB above the process "
         "baseline)\n",
-        s, r.scans()[s].name.c_str(), static_cast<unsigned long long>(n_points), a.repeats,
-        best_wall * 1e3, static_cast<double>(n_points) / best_wall / 1e6, best_cpu * 1e3,
-        static_cast<double>(n_points) / std::max(best_cpu, 1e-9) / 1e6, peak_memory_mib(),
+        s, r.scans()[s].name.c_str(), static_cast<unsigned long long>(scan.points), a.repeats,
+        scan.wall * 1e3, static_cast<double>(scan.points) / scan.wall / 1e6, scan.cpu * 1e3,
+        static_cast<double>(scan.points) / std::max(scan.cpu, 1e-9) / 1e6, peak_memory_mib(),
         peak_memory_mib() - base);
   }
   std::array<double, 6> total{};

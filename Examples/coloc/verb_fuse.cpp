@@ -379,6 +379,50 @@ void run_play(const PlayArgs& a) {
   if (stats.sent == 0) throw CliFailure("no pose could be sent");
 }
 
+void add_play_subcommand(CLI::App& cmd) {
+  auto play_args = std::make_shared<PlayArgs>();
+  CLI::App& play = *cmd.add_subcommand(
+      "play", "Send recorded poses (TUM) over OSC at their recorded pace, as the device would");
+  play.add_option("poses", play_args->poses_file, "Poses (TUM): a headset's xr_from_head")
+      ->required()
+      ->check(CLI::ExistingFile);
+  play.add_option("--to", play_args->options.targets, "osc.udp://HOST:PORT (repeatable)")
+      ->required();
+  play.add_option("--address", play_args->address, "/coloc/xr_pose or /coloc/pose")
+      ->capture_default_str();
+  auto* play_global =
+      play.add_option("--global", play_args->global_file,
+                      "Also play these poses (TUM, world_from_head) as /coloc/pose, "
+                      "as a localizer sends them")
+          ->check(CLI::ExistingFile);
+  play.add_option("--latency", play_args->latency,
+                  "Seconds after its stamp each --global pose is sent")
+      ->capture_default_str()
+      ->needs(play_global);
+  play.add_option("--speed", play_args->options.speed, "Faster (> 1) or slower than recorded")
+      ->capture_default_str();
+  play.callback([play_args] { run_play(*play_args); });
+}
+
+void add_fuse_bench(CLI::App& bench) {
+  auto bargs = std::make_shared<FuseBenchArgs>();
+  CLI::App& b = *bench.add_subcommand(
+      "fusion", "Fusion accuracy on a simulated session, cost of one fused pose, OSC round trip");
+  b.add_option("--duration", bargs->session.duration, "Simulated seconds")->capture_default_str();
+  b.add_option("--rate", bargs->session.global_rate, "Global pose rate, Hz")->capture_default_str();
+  b.add_option("--latency", bargs->session.global_latency, "Global pose latency, s")
+      ->capture_default_str();
+  b.add_option("--outliers", bargs->session.outlier_fraction, "Fraction of gross outliers")
+      ->capture_default_str();
+  b.add_option("--seed", bargs->session.seed, "Random seed")->capture_default_str();
+  b.add_option("--vive-log", bargs->vive_log,
+               "Static Vive drift log for the headset noise (default: the shared data's)");
+  b.add_option("--round-trips", bargs->round_trips, "OSC round trips to time")
+      ->capture_default_str();
+  b.add_flag("--json", bargs->json, "Machine-readable output on stdout");
+  b.callback([bargs] { run_bench(*bargs); });
+}
+
 }  // namespace
 
 void add_fuse_verb(CLI::App& app, CLI::App& bench) {
@@ -420,28 +464,7 @@ void add_fuse_verb(CLI::App& app, CLI::App& bench) {
   listen->excludes(imu);
   add_filter_options(cmd, *args);
   cmd.add_flag("--json", args->json, "Statistics as JSON on stdout");
-  auto play_args = std::make_shared<PlayArgs>();
-  CLI::App& play = *cmd.add_subcommand(
-      "play", "Send recorded poses (TUM) over OSC at their recorded pace, as the device would");
-  play.add_option("poses", play_args->poses_file, "Poses (TUM): a headset's xr_from_head")
-      ->required()
-      ->check(CLI::ExistingFile);
-  play.add_option("--to", play_args->options.targets, "osc.udp://HOST:PORT (repeatable)")
-      ->required();
-  play.add_option("--address", play_args->address, "/coloc/xr_pose or /coloc/pose")
-      ->capture_default_str();
-  auto* play_global =
-      play.add_option("--global", play_args->global_file,
-                      "Also play these poses (TUM, world_from_head) as /coloc/pose, "
-                      "as a localizer sends them")
-          ->check(CLI::ExistingFile);
-  play.add_option("--latency", play_args->latency,
-                  "Seconds after its stamp each --global pose is sent")
-      ->capture_default_str()
-      ->needs(play_global);
-  play.add_option("--speed", play_args->options.speed, "Faster (> 1) or slower than recorded")
-      ->capture_default_str();
-  play.callback([play_args] { run_play(*play_args); });
+  add_play_subcommand(cmd);
 
   cmd.callback([args, &cmd] {
     if (cmd.got_subcommand("play")) return;
@@ -456,22 +479,7 @@ void add_fuse_verb(CLI::App& app, CLI::App& bench) {
     }
   });
 
-  auto bargs = std::make_shared<FuseBenchArgs>();
-  CLI::App& b = *bench.add_subcommand(
-      "fusion", "Fusion accuracy on a simulated session, cost of one fused pose, OSC round trip");
-  b.add_option("--duration", bargs->session.duration, "Simulated seconds")->capture_default_str();
-  b.add_option("--rate", bargs->session.global_rate, "Global pose rate, Hz")->capture_default_str();
-  b.add_option("--latency", bargs->session.global_latency, "Global pose latency, s")
-      ->capture_default_str();
-  b.add_option("--outliers", bargs->session.outlier_fraction, "Fraction of gross outliers")
-      ->capture_default_str();
-  b.add_option("--seed", bargs->session.seed, "Random seed")->capture_default_str();
-  b.add_option("--vive-log", bargs->vive_log,
-               "Static Vive drift log for the headset noise (default: the shared data's)");
-  b.add_option("--round-trips", bargs->round_trips, "OSC round trips to time")
-      ->capture_default_str();
-  b.add_flag("--json", bargs->json, "Machine-readable output on stdout");
-  b.callback([bargs] { run_bench(*bargs); });
+  add_fuse_bench(bench);
 }
 
 }  // namespace coloc::cli
