@@ -1,4 +1,4 @@
-// LocalMapper's bundle adjustment and keyframe culling (split from local_mapper.cpp for size).
+// LocalMapper's bundle adjustment (split from local_mapper.cpp for size).
 #include <spdlog/spdlog.h>
 
 #include <cmath>
@@ -63,42 +63,6 @@ void LocalMapper::update_readout(double estimate) {
   shared_.readout = estimate;
   map::set_map_readout(shared_.map, estimate);
   spdlog::debug("local mapping: rolling-shutter readout estimated {:.2f} ms", 1e3 * estimate);
-}
-
-void LocalMapper::cull_keyframes(KeyframeId current) {
-  std::lock_guard lock(shared_.mutex);
-  map::Map& m = shared_.map;
-  if (!m.keyframe(current)) return;
-  int culled = 0;
-  for (KeyframeId k : m.covisible(current)) {
-    const map::Keyframe* kf = m.keyframe(k);
-    // Keyframes newer than `current` are still queued for this thread (tracking inserted them
-    // already): not connected, not in the database yet, so not judged yet either.
-    if (!kf || k == m.first_keyframe() || current < k) continue;
-    const frame::Frame& f = kf->frame;
-    int total = 0, redundant = 0;
-    for (std::size_t i = 0; i < f.size(); ++i) {
-      const map::MapPoint* p = f.points[i].valid() ? m.point(f.points[i]) : nullptr;
-      // RGB-D: only close points count (far ones are weakly constrained anyway).
-      if (!p || !f.is_close(i)) continue;
-      ++total;
-      if (m.weighted_observations(p->id) <= 3) continue;
-      int seen = 0;
-      for (const auto& [ok, oidx] : p->observations) {
-        if (ok == k) continue;
-        const map::Keyframe* other = m.keyframe(ok);
-        if (other && other->frame.level(oidx) <= f.level(i) + 1 && ++seen >= 3) break;
-      }
-      redundant += seen >= 3 ? 1 : 0;
-    }
-    if (total > 0 && redundant > options_.redundancy * total) {
-      shared_.database.erase(k.value());
-      m.erase_keyframe(k);
-      ++culled;
-    }
-  }
-  std::lock_guard slock(state_mutex_);
-  stats_.keyframes_culled += culled;
 }
 
 }  // namespace coloc::slam::mapping

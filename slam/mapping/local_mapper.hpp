@@ -40,6 +40,14 @@ struct LocalMappingOptions {
   optim::BundleOptions ba;
   bool keyframe_culling = true;
   double redundancy = 0.9;  // a keyframe whose points are this often seen by 3 others is culled
+  // ... and at this lower share when its neighbours before and after look within
+  // `straight_turn_deg` of its direction. Walking, each keyframe holds many points seen by one
+  // or two others only, so ORB-SLAM's 90 % never culls (twin building: the most redundant had
+  // 64 %), while its neighbours see what it sees. Turning (fr1/rpy) its share of views no
+  // other keyframe has is what tracking needs: there the share stays 90 %. The sitting that set
+  // these is in docs/results/mapping-speed.md (2026-11-29, 19:50).
+  double redundancy_straight = 0.2;
+  double straight_turn_deg = 5.0;
   // Rolling-shutter readout unknown (SharedMap::estimate_readout): the local BA estimates it
   // with the poses, under a prior of `readout_step` seconds on its change (the window's data
   // outweigh it; it steadies windows without fast turns). The keyframes are compensated again

@@ -10,6 +10,10 @@ void LocalMappingOptions::check() const {
   if (!(fusion_radius > 0.0)) throw Error("LocalMappingOptions.fusion_radius must be > 0");
   if (!(redundancy > 0.0 && redundancy <= 1.0))
     throw Error("LocalMappingOptions.redundancy must be in (0, 1]");
+  if (!(redundancy_straight > 0.0 && redundancy_straight <= 1.0))
+    throw Error("LocalMappingOptions.redundancy_straight must be in (0, 1]");
+  if (!(straight_turn_deg >= 0.0 && straight_turn_deg <= 180.0))
+    throw Error("LocalMappingOptions.straight_turn_deg must be in [0, 180]");
   if (!(readout_step > 0.0)) throw Error("LocalMappingOptions.readout_step must be > 0");
   if (!(readout_publish >= 0.0)) throw Error("LocalMappingOptions.readout_publish must be >= 0");
   if (!(readout_max > 0.0 && readout_max < 1.0))

@@ -65,6 +65,8 @@ constexpr std::array kTunables{
   Tunable{"mapping.ba.own_dense_solver", [](SystemOptions& o) -> Field { return &o.mapping.ba.own_dense_solver; }},
   Tunable{"mapping.keyframe_culling", [](SystemOptions& o) -> Field { return &o.mapping.keyframe_culling; }},
   Tunable{"mapping.redundancy", [](SystemOptions& o) -> Field { return &o.mapping.redundancy; }},
+  Tunable{"mapping.redundancy_straight", [](SystemOptions& o) -> Field { return &o.mapping.redundancy_straight; }},
+  Tunable{"mapping.straight_turn_deg", [](SystemOptions& o) -> Field { return &o.mapping.straight_turn_deg; }},
   Tunable{"mapping.estimate_readout", [](SystemOptions& o) -> Field { return &o.mapping.estimate_readout; }},
   Tunable{"mapping.readout_step", [](SystemOptions& o) -> Field { return &o.mapping.readout_step; }},
   Tunable{"mapping.readout_publish", [](SystemOptions& o) -> Field { return &o.mapping.readout_publish; }},

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "slam/eval/trajectory_error.hpp"
+#include "slam/mapping/culling.hpp"
 #include "slam/synthetic/synthetic_scene.hpp"
 #include "slam/system/system.hpp"
 #include "tests/slam/support/slam_test_support.hpp"
@@ -100,6 +101,59 @@ TEST(KeyframeCulling, CovisibilityEdgesStaySymmetricThroughUpdatesAndErasure) {
   EXPECT_EQ(test_support::map_problem(m), "");
   EXPECT_EQ(m.keyframe(b)->covisibility.count(c), 0u);
   EXPECT_EQ(m.keyframe(a)->covisibility.count(c), 0u);
+}
+
+// ORB-SLAM's measure: the share of a keyframe's close points that three other keyframes see.
+TEST(KeyframeCulling, RedundantShareCountsPointsSeenByThreeOthers) {
+  map::Map m;
+  std::vector<MapPointId> pa;
+  const KeyframeId a = add_observer(m, 0.0, {}, 40, &pa);
+  add_observer(m, 0.05, pa, 0);                                     // b sees all 40
+  add_observer(m, 0.10, slice(pa, 0, 30), 0);                       // c sees 30
+  const KeyframeId d = add_observer(m, 0.15, slice(pa, 0, 10), 5);  // d sees 10, adds 5
+  EXPECT_DOUBLE_EQ(mapping::redundant_share(m, a), 10.0 / 40.0);
+  EXPECT_DOUBLE_EQ(mapping::redundant_share(m, d), 10.0 / 15.0);
+}
+
+// The lower share applies only between neighbours that look the same way: a walk, not a turn.
+TEST(KeyframeCulling, StraightStretchIsJudgedByTheNeighboursDirections) {
+  map::Map m;
+  std::vector<MapPointId> pa;
+  const KeyframeId a = add_observer(m, 0.0, {}, 40, &pa);
+  const KeyframeId b = add_observer(m, 0.05, pa, 0);
+  const KeyframeId c = add_observer(m, 0.10, pa, 0);
+  EXPECT_TRUE(mapping::between_same_view(m, b, 5.0));
+  EXPECT_FALSE(mapping::between_same_view(m, a, 5.0));  // nothing before it
+  EXPECT_FALSE(mapping::between_same_view(m, c, 5.0));  // nothing after it yet
+
+  // c turned by 8 degrees about the vertical: b is inside a 10-degree stretch, not a 5-degree one.
+  map::Keyframe& kc = *m.keyframe(c);
+  const Eigen::Vector3d centre_c = kc.cam_from_world().inverse().translation();
+  const SO3 cam_from_world_c = SO3::from_axis_angle(Eigen::Vector3d::UnitY(), 8.0 * M_PI / 180.0);
+  kc.frame.cam_from_world = SE3(cam_from_world_c, -(cam_from_world_c * centre_c));
+  EXPECT_NEAR(mapping::axis_angle_deg(*m.keyframe(b), kc), 8.0, 1e-9);
+  EXPECT_FALSE(mapping::between_same_view(m, b, 5.0));
+  EXPECT_TRUE(mapping::between_same_view(m, b, 10.0));
+}
+
+// A keyframe holding a marker's view is culled only while two other keyframes see that marker.
+TEST(KeyframeCulling, KeepsTheLastViewsOfAMarker) {
+  map::Map m;
+  std::vector<MapPointId> pa;
+  const KeyframeId a = add_observer(m, 0.0, {}, 40, &pa);
+  const KeyframeId b = add_observer(m, 0.05, pa, 0);
+  const KeyframeId c = add_observer(m, 0.10, pa, 0);
+  EXPECT_TRUE(mapping::markers_seen_elsewhere(m, b));  // no marker: nothing to keep
+  markers::MarkerObservation seen;
+  seen.id = 7;
+  m.keyframe(b)->markers.push_back(seen);
+  m.keyframe(c)->markers.push_back(seen);
+  EXPECT_FALSE(mapping::markers_seen_elsewhere(m, b));  // c alone would be left
+  m.keyframe(a)->markers.push_back(seen);
+  EXPECT_TRUE(mapping::markers_seen_elsewhere(m, b));
+  seen.id = 8;  // a second marker that only b sees
+  m.keyframe(b)->markers.push_back(seen);
+  EXPECT_FALSE(mapping::markers_seen_elsewhere(m, b));
 }
 
 TEST(KeyframeCulling, HoveringCameraCullsRedundantKeyframesAndKeepsTheMapConsistent) {
