@@ -77,9 +77,9 @@ void LocalMapper::cull_keyframes(KeyframeId current) {
     // Keyframes newer than `current` are still queued for this thread (tracking inserted them
     // already): not connected, not in the database yet, so not judged yet either.
     if (!m.keyframe(k) || k == m.first_keyframe() || current < k) continue;
-    const double limit = between_same_view(m, k, options_.straight_turn_deg)
-                             ? std::min(options_.redundancy_straight, options_.redundancy)
-                             : options_.redundancy;
+    const bool straight = options_.redundancy_straight < options_.redundancy &&
+                          between_same_view(m, k, options_.straight_turn_deg);
+    const double limit = straight ? options_.redundancy_straight : options_.redundancy;
     if (redundant_share(m, k) > limit && markers_seen_elsewhere(m, k)) {
       shared_.database.erase(k.value());
       m.erase_keyframe(k);

@@ -40,13 +40,16 @@ struct LocalMappingOptions {
   optim::BundleOptions ba;
   bool keyframe_culling = true;
   double redundancy = 0.9;  // a keyframe whose points are this often seen by 3 others is culled
-  // ... and at this lower share when its neighbours before and after look within
-  // `straight_turn_deg` of its direction. Walking, each keyframe holds many points seen by one
-  // or two others only, so ORB-SLAM's 90 % never culls (twin building: the most redundant had
-  // 64 %), while its neighbours see what it sees. Turning (fr1/rpy) its share of views no
-  // other keyframe has is what tracking needs: there the share stays 90 %. The sitting that set
-  // these is in docs/results/mapping-speed.md (2026-11-29, 19:50).
-  double redundancy_straight = 0.2;
+  // ... and at this share when its neighbours before and after look within `straight_turn_deg`
+  // of its direction. Off by default (the same 90 %). Walking, each keyframe holds many points
+  // seen by one or two others only, so ORB-SLAM's 90 % never culls (twin building: the most
+  // redundant had 64 %), while its neighbours see what it sees. 0.2-0.4 keeps 7-Scenes' error
+  // 2.5-3 mm lower with half the keyframes, and 0.2 brings the twin to 1.3x ORB-SLAM2's
+  // keyframes, but the poses as tracked suffer: a hovering camera 3.9 -> 4.1-5.7 mm (the
+  // culling test), twin seed 1 13 -> 39 mm before its loop closed, and at 0.2-0.3 one of the
+  // demo room's maps lost its second walk's localization. docs/results/mapping-speed.md
+  // (2026-11-29, 19:45) has the sitting.
+  double redundancy_straight = 0.9;
   double straight_turn_deg = 5.0;
   // Rolling-shutter readout unknown (SharedMap::estimate_readout): the local BA estimates it
   // with the poses, under a prior of `readout_step` seconds on its change (the window's data

@@ -34,7 +34,9 @@ TEST(Tuning, KnownKeysSetTheirOptions) {
                      {"mapping.queue_capacity", 2},
                      {"tracking.relocalization.min_inliers", 60},
                      {"tracking.reference_ratio", 0.65},
-                     {"mapping.ba.own_dense_solver", 0}}),
+                     {"mapping.ba.own_dense_solver", 0},
+                     {"mapping.redundancy_straight", 0.5},
+                     {"mapping.straight_turn_deg", 8}}),
                o);
   EXPECT_EQ(o.tracking.min_local_inliers, 40);
   EXPECT_FALSE(o.mapping.local_ba);
@@ -43,6 +45,8 @@ TEST(Tuning, KnownKeysSetTheirOptions) {
   EXPECT_EQ(o.tracking.relocalization.min_inliers, 60);
   EXPECT_DOUBLE_EQ(o.tracking.reference_ratio, 0.65);
   EXPECT_FALSE(o.mapping.ba.own_dense_solver);  // every BA back to Ceres
+  EXPECT_DOUBLE_EQ(o.mapping.redundancy_straight, 0.5);
+  EXPECT_DOUBLE_EQ(o.mapping.straight_turn_deg, 8.0);
   // The effective values are printed by the same names.
   const std::string d = o.describe();
   EXPECT_NE(d.find("tracking.min_local_inliers 40\n"), std::string::npos) << d;
@@ -58,6 +62,8 @@ TEST(Tuning, UnknownNamesWrongTypesAndInvalidValuesAreErrors) {
   // A value of the right type that the options reject: the file is named, the message says why.
   expect_rejected({{"tracking.min_local_inliers", 3}}, "");
   expect_rejected({{"tracking.reference_ratio", 1.5}}, "");
+  expect_rejected({{"mapping.redundancy_straight", 0.0}}, "");
+  expect_rejected({{"mapping.straight_turn_deg", -1}}, "");
 }
 
 }  // namespace
