@@ -1,5 +1,5 @@
-// Keyframe culling: ORB-SLAM's redundancy test, with a lower share on straight stretches and
-// markers' views kept (LocalMappingOptions::redundancy_straight says why).
+// Keyframe culling: ORB-SLAM's redundancy test, an optional lower share on straight stretches,
+// and markers' last views kept (LocalMappingOptions::redundancy_straight says why it is off).
 #include "slam/mapping/culling.hpp"
 
 #include <algorithm>
