@@ -1,7 +1,10 @@
 #include "slam/reloc/relocalizer.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
+#include <optional>
 
 #include "slam/core/error.hpp"
 #include "slam/matching/pose_support.hpp"
@@ -120,29 +123,64 @@ bool try_candidate(frame::Frame& frame, const map::Keyframe& kf, const map::Map&
 
 RelocalizationResult relocalize(frame::Frame& frame, const map::Map& map,
                                 const bow::BowDatabase& database,
-                                const RelocalizationOptions& options) {
+                                const RelocalizationOptions& options,
+                                const RelocalizationPrior& prior) {
   options.check();
   bow::QueryOptions query;
   query.max_results = options.max_candidates;
   query.min_common_words_ratio = 0.8;
-  const auto candidates = database.query(frame.bow, query);
-  for (const auto& c : candidates) {
-    const map::Keyframe* kf = map.keyframe(KeyframeId(c.image));
-    if (!kf || kf->frame.feature_vector.entries.empty()) continue;
-    RelocalizationResult attempt;
-    attempt.candidates = static_cast<int>(candidates.size());
-    if (!try_candidate(frame, *kf, map, options, attempt)) continue;
-    matching::drop_outliers(frame);
-    frame.has_pose = true;
-    attempt.success = true;
-    attempt.keyframe = kf->id;
-    return attempt;
+  std::vector<KeyframeId> order = prior.keyframes;
+  for (const auto& c : database.query(frame.bow, query)) {
+    const KeyframeId k(c.image);
+    if (std::find(order.begin(), order.end(), k) == order.end()) order.push_back(k);
   }
-  frame.points.assign(frame.size(), MapPointId::invalid());
-  frame.outlier.assign(frame.size(), 0);
-  RelocalizationResult failed;
-  failed.candidates = static_cast<int>(candidates.size());
-  return failed;
+  RelocalizationResult result;
+  result.candidates = static_cast<int>(order.size());
+  // Without a prior the first candidate that solves the frame wins (ORB-SLAM's rule). With one,
+  // every candidate is tried and the solution nearest the last tracked place wins: a look-alike
+  // place can be inside the bound too, and the right place is the nearer of the two.
+  const bool bounded = std::isfinite(prior.max_distance_m);
+  std::optional<RelocalizationResult> best;
+  double best_distance = std::numeric_limits<double>::infinity();
+  SE3 best_pose;
+  std::vector<MapPointId> best_points;
+  std::vector<std::uint8_t> best_outlier;
+  for (KeyframeId k : order) {
+    const map::Keyframe* kf = map.keyframe(k);
+    if (!kf || kf->frame.feature_vector.entries.empty()) continue;
+    RelocalizationResult attempt = result;
+    if (!try_candidate(frame, *kf, map, options, attempt)) continue;
+    const double distance =
+        (frame.cam_from_world.inverse().translation() - prior.world_centre).norm();
+    if (distance > prior.max_distance_m) {
+      ++result.implausible;
+      result.nearest_implausible_m = std::min(result.nearest_implausible_m, distance);
+      continue;
+    }
+    attempt.keyframe = kf->id;
+    if (distance < best_distance) {
+      best = attempt;
+      best_distance = distance;
+      best_pose = frame.cam_from_world;
+      best_points = frame.points;
+      best_outlier = frame.outlier;
+    }
+    if (!bounded) break;
+  }
+  if (!best) {
+    frame.points.assign(frame.size(), MapPointId::invalid());
+    frame.outlier.assign(frame.size(), 0);
+    return result;
+  }
+  frame.cam_from_world = best_pose;
+  frame.points = std::move(best_points);
+  frame.outlier = std::move(best_outlier);
+  matching::drop_outliers(frame);
+  frame.has_pose = true;
+  best->success = true;
+  best->implausible = result.implausible;
+  best->nearest_implausible_m = result.nearest_implausible_m;
+  return *best;
 }
 
 }  // namespace coloc::slam::reloc

@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cmath>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 #include <unordered_map>
@@ -58,6 +59,8 @@ void TrackingOptions::check() const {
   if (!(reloc_gate_seconds >= 0.0)) throw Error("TrackingOptions.reloc_gate_seconds must be >= 0");
   if (!(reloc_gate_m >= 0.0)) throw Error("TrackingOptions.reloc_gate_m must be >= 0");
   if (!(reloc_gate_speed >= 0.0)) throw Error("TrackingOptions.reloc_gate_speed must be >= 0");
+  if (!(reloc_gate_localizing_m >= 0.0))
+    throw Error("TrackingOptions.reloc_gate_localizing_m must be >= 0");
   if (!(weak_reference_ratio == 0.0 || weak_reference_ratio >= 1.0))
     throw Error("TrackingOptions.weak_reference_ratio must be 0 (off) or at least 1");
   if (!(motion_prior_sigma_m >= 0.0))
@@ -220,7 +223,7 @@ bool Tracker::track_frame(int image_rows, double timestamp, TrackingResult& resu
   if (ok) {
     deviation_deg_ = 0.0;
     if (has_velocity_ && last_.has_pose) {
-      const SE3 predicted = velocity_ * last_.cam_from_world;
+      const SE3 predicted = motion_since_last() * last_.cam_from_world;
       deviation_deg_ = rotation_distance(current_.cam_from_world, predicted) * kDegPerRad;
     }
     if (last_.has_pose) {
@@ -233,6 +236,7 @@ bool Tracker::track_frame(int image_rows, double timestamp, TrackingResult& resu
       if (recent_motion_.size() > window) recent_motion_.resize(window);
       refine_rolling_shutter(image_rows);
       velocity_ = current_.cam_from_world * last_.cam_from_world.inverse();  // after the refinement
+      velocity_dt_ = current_.timestamp - last_.timestamp;
       has_velocity_ = true;
     }
     result.local_map_ms = stage.elapsed_ms();
@@ -370,14 +374,28 @@ bool Tracker::initialize() {
   return true;
 }
 
+SE3 scale_motion(const SE3& motion, double measured_dt, double dt) {
+  constexpr double kSkipRatio = 1.6;
+  constexpr double kMaxRatio = 5.0;
+  if (!(measured_dt > 0.0) || !(dt > 0.0)) return motion;
+  const double ratio = dt / measured_dt;
+  if (ratio < kSkipRatio && ratio > 1.0 / kSkipRatio) return motion;
+  return SE3::exp(motion.log() * std::min(ratio, kMaxRatio));
+}
+
+SE3 Tracker::motion_since_last() const {
+  return scale_motion(velocity_, velocity_dt_, current_.timestamp - last_.timestamp);
+}
+
 bool Tracker::track_from_last_frame() {
   if (!shared_.map.keyframe(reference_)) update_local_map();
   follow_reference_of_last_frame();
+  const SE3 motion = motion_since_last();
   if (has_velocity_ && options_.motion_prior_sigma_m > 0.0)
-    centre_prior_ = optim::CentrePrior{
-        .world_centre = (velocity_ * last_.cam_from_world).inverse().translation(),
-        .sigma_m = options_.motion_prior_sigma_m};
-  if (has_velocity_ && track_motion_model(velocity_)) return true;
+    centre_prior_ =
+        optim::CentrePrior{.world_centre = (motion * last_.cam_from_world).inverse().translation(),
+                           .sigma_m = options_.motion_prior_sigma_m};
+  if (has_velocity_ && track_motion_model(motion)) return true;
   if (track_reference_keyframe()) return true;
   // Right after a relocalization there is no velocity yet, and the reference keyframe's BoW
   // matches can be too few (the relocalizing frame needed projection passes too): the last
@@ -430,22 +448,29 @@ bool Tracker::track_reference_keyframe() {
 
 bool Tracker::relocalize() {
   compute_bow(current_);
-  const auto r =
-      reloc::relocalize(current_, shared_.map, shared_.database, options_.relocalization);
-  if (!r.success) return false;
+  const map::Map& m = shared_.map;
+  reloc::RelocalizationPrior prior;
   const double dt = last_tracked_time_ ? current_.timestamp - *last_tracked_time_ : 0.0;
   if (last_tracked_time_ && dt >= 0.0 && dt < options_.reloc_gate_seconds) {
-    const double jump =
-        (current_.cam_from_world.inverse().translation() - last_tracked_centre_).norm();
-    const double allowed = options_.reloc_gate_m + options_.reloc_gate_speed * dt;
-    if (jump > allowed) {
-      spdlog::info(
-          "tracking: relocalization at frame {} against keyframe {} ({} inliers) refused: {:.2f} "
-          "m from the last tracked pose {:.2f} s ago (at most {:.2f} m)",
-          current_.id.value(), r.keyframe.value(), r.inliers, jump, dt, allowed);
-      return false;
+    prior.world_centre = last_tracked_centre_;
+    // A mapper may close a loop meanwhile and move the map under the last pose; a localizer's
+    // map stays put.
+    const double base = sink_ ? options_.reloc_gate_m : options_.reloc_gate_localizing_m;
+    prior.max_distance_m = base + options_.reloc_gate_speed * dt;
+    if (m.keyframe(reference_)) {
+      prior.keyframes.push_back(reference_);
+      for (KeyframeId k : m.covisible(reference_, options_.relocalization.max_candidates))
+        prior.keyframes.push_back(k);
     }
   }
+  const auto r = reloc::relocalize(current_, m, shared_.database, options_.relocalization, prior);
+  if (r.implausible > 0) {
+    spdlog::info(
+        "tracking: relocalization at frame {}: {} candidate(s) refused, the nearest {:.2f} m from "
+        "the last tracked pose {:.2f} s ago (at most {:.2f} m)",
+        current_.id.value(), r.implausible, r.nearest_implausible_m, dt, prior.max_distance_m);
+  }
+  if (!r.success) return false;
   reference_ = r.keyframe;
   last_reloc_frame_ = current_.id;
   ++relocalizations_;

@@ -171,10 +171,16 @@ struct TrackingOptions {
   // since its last tracked frame: a place that only looks alike (repeated rooms and textures of
   // a building) is farther. Within reloc_gate_seconds of that frame the new camera centre may
   // be at most reloc_gate_m + reloc_gate_speed * dt away; later, or from a cold start,
-  // anywhere. (A 56-inlier relocalization 40 m away tore a continued twin map apart.)
+  // anywhere. (A 56-inlier relocalization 40 m away tore a continued twin map apart.) A
+  // candidate keyframe whose pose lands outside is passed over for the next one, and the
+  // keyframes around the last tracked place are tried before the BoW database's.
   double reloc_gate_seconds = 3.0;
   double reloc_gate_m = 0.5;      // metres (also covers a loop correction meanwhile)
   double reloc_gate_speed = 2.0;  // metres per second: faster than a walking user
+  // The same for a localizer: its map does not move, so only the last pose's error and the
+  // depth noise count. (Demo room, walk 1: a 59-inlier look-alike 1.0 m away, 0.27 s after the
+  // last tracked frame, was inside 0.5 m + 2 m/s and put the walk 1.1 m off for 2 s.)
+  double reloc_gate_localizing_m = 0.1;
   // ORB-SLAM makes no keyframe for max_frames_between_keyframes frames after a relocalization,
   // unless (ours) tracking is thinning out: fewer local-map inliers than this. A continued map
   // is left at once for unmapped space, where that pause lost tracking.
@@ -187,6 +193,17 @@ struct TrackingOptions {
   // Throws coloc::Error naming the first invalid field.
   void check() const;
 };
+
+// The constant-velocity model over a frame interval other than the one the motion was measured
+// over: `motion` (current_from_last over measured_dt seconds) scaled along its twist to dt. A
+// localizer that falls behind a live camera skips frames (under load 2-4 intervals between the
+// frames it tracks), and the motion of one interval predicts a third of the way: the search
+// window misses and tracking is lost. Intervals within a factor 1.6 of each other keep the
+// motion as measured, as ORB-SLAM does: recorded timestamps jitter (TUM fr1's between 27 and
+// 40 ms, ratios up to 1.46, while the camera runs at a steady 30 Hz; scaling by them put
+// fr1/rpy's starts 3 and 5 at 24-32 mm instead of 15-17). The ratio is capped at 5 (a longer
+// gap is a relocalization's to bridge).
+SE3 scale_motion(const SE3& motion, double measured_dt, double dt);
 
 struct TrackingResult {
   TrackingState state = TrackingState::kNotInitialized;
@@ -256,6 +273,8 @@ class Tracker {
   // Motion model, else the reference keyframe, else (just relocalized) zero motion.
   bool track_from_last_frame();
   bool track_motion_model(const SE3& velocity);
+  // The motion model's current_from_last (scale_motion of velocity_).
+  SE3 motion_since_last() const;
   // optimize_frame_pose() of `frame` with the motion model's centre prior, when there is one.
   int optimize_pose(frame::Frame& frame) const;
   bool track_reference_keyframe();
@@ -297,7 +316,8 @@ class Tracker {
   // current_'s depth image (CV_32FC1 metres; the caller's, not copied), for the keyframe made
   // from it (add_current_keyframe); released when track() returns.
   cv::Mat current_depth_;
-  SE3 velocity_;  // current_from_last of the last two tracked frames
+  SE3 velocity_;              // current_from_last of the last two tracked frames
+  double velocity_dt_ = 0.0;  // seconds between those two frames
   // Where the motion model puts current_'s centre (TrackingOptions::motion_prior_sigma_m).
   std::optional<optim::CentrePrior> centre_prior_;
   bool has_velocity_ = false;

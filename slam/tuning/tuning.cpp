@@ -49,6 +49,7 @@ constexpr std::array kTunables{
   Tunable{"tracking.reloc_gate_seconds", [](SystemOptions& o) -> Field { return &o.tracking.reloc_gate_seconds; }},
   Tunable{"tracking.reloc_gate_m", [](SystemOptions& o) -> Field { return &o.tracking.reloc_gate_m; }},
   Tunable{"tracking.reloc_gate_speed", [](SystemOptions& o) -> Field { return &o.tracking.reloc_gate_speed; }},
+  Tunable{"tracking.reloc_gate_localizing_m", [](SystemOptions& o) -> Field { return &o.tracking.reloc_gate_localizing_m; }},
   Tunable{"tracking.reloc_pause_min_inliers", [](SystemOptions& o) -> Field { return &o.tracking.reloc_pause_min_inliers; }},
   Tunable{"tracking.keyframe_depth_factor", [](SystemOptions& o) -> Field { return &o.tracking.keyframe_depth_factor; }},
   Tunable{"tracking.relocalization.min_inliers", [](SystemOptions& o) -> Field { return &o.tracking.relocalization.min_inliers; }},

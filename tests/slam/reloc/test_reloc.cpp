@@ -45,12 +45,14 @@ class SyntheticMap {
     return out;
   }
 
-  // Points for every `stride`-th keypoint with depth (a sparser map has fewer matches).
-  KeyframeId add_keyframe(int index, std::size_t stride = 1) {
+  // Points for every `stride`-th keypoint with depth (a sparser map has fewer matches). A
+  // non-zero `offset` makes a look-alike place: the same view and points, moved by it.
+  KeyframeId add_keyframe(int index, std::size_t stride = 1,
+                          const Eigen::Vector3d& offset = Eigen::Vector3d::Zero()) {
     map::Keyframe kf;
     kf.id = map_.next_keyframe_id();
     kf.frame = make_frame(index);
-    kf.frame.cam_from_world = scene_.world_from_cam(index).inverse();
+    kf.frame.cam_from_world = (SE3(SO3(), offset) * scene_.world_from_cam(index)).inverse();
     kf.frame.has_pose = true;
     const KeyframeId id = kf.id;
     const frame::Frame& f = map_.add_keyframe(std::move(kf)).frame;
@@ -149,6 +151,43 @@ TEST(Relocalization, FailsCleanlyOnAnUnknownPlace) {
   EXPECT_FALSE(r.success);
   EXPECT_EQ(r.inliers, 0);
   EXPECT_EQ(f.tracked_count(), 0u);
+}
+
+// A look-alike place 1 m away (the same view and points, moved): both keyframes relocalize the
+// frame, each at its own place. Tracking lost a moment ago knows where the camera can be: the
+// prior passes over the look-alike outside its bound and, of the poses inside, takes the
+// nearest, whichever candidate comes first.
+TEST(Relocalization, APriorPassesOverALookAlikePlace) {
+  SyntheticMap m(20);
+  const Eigen::Vector3d offset(1.0, 0.0, 0.0);
+  const KeyframeId right = m.add_keyframe(0);
+  const KeyframeId look_alike = m.add_keyframe(0, 1, offset);
+  const int j = 10;
+  const Eigen::Vector3d centre = m.scene().world_from_cam(j).translation();
+  const auto relocalize_near = [&](const Eigen::Vector3d& where, double bound,
+                                   std::vector<KeyframeId> first) {
+    frame::Frame f = m.make_frame(j);
+    RelocalizationPrior prior{
+        .keyframes = std::move(first), .world_centre = where, .max_distance_m = bound};
+    const RelocalizationResult r = relocalize(f, m.map(), m.database(), {}, prior);
+    return std::pair(r, f.cam_from_world);
+  };
+  // Tried first, the look-alike is outside the bound: passed over, and the right place wins.
+  const auto [r, pose] = relocalize_near(centre, 0.3, {look_alike});
+  ASSERT_TRUE(r.success);
+  EXPECT_EQ(r.keyframe, right);
+  EXPECT_EQ(r.implausible, 1);
+  EXPECT_NEAR(r.nearest_implausible_m, 1.0, 0.05);
+  EXPECT_LT(pose_error(m, j, pose).translation_m, 0.02);
+  // Both inside a wide bound: the nearer one wins, in either order.
+  for (const auto& first : {std::vector{right}, std::vector{look_alike}}) {
+    EXPECT_EQ(relocalize_near(centre, 5.0, first).first.keyframe, right);
+    EXPECT_EQ(relocalize_near(centre + offset, 5.0, first).first.keyframe, look_alike);
+  }
+  // Neither inside: the frame stays lost, with nothing matched.
+  const auto [none, unused] = relocalize_near(centre + Eigen::Vector3d(0, 0, 3), 0.5, {});
+  EXPECT_FALSE(none.success);
+  EXPECT_EQ(none.implausible, 2);
 }
 
 // The narrow pass, started from a rough pose as few, clustered BoW matches would leave it: the

@@ -180,16 +180,21 @@ struct TrackedRun {
   }
 };
 
+// The frames arrive one scene interval apart whichever frames they are, so that frames left out
+// make the camera jump (the motion model predicts one interval's motion).
 TrackedRun track_frames(const SyntheticRgbdScene& scene, const TrackingOptions& options,
                         const std::vector<int>& frames, int blurred = -1, double sigma = 0.0) {
   map::SharedMap shared;
   RecordingSink sink;
   Tracker tracker = make_tracker(shared, &sink, scene, options);
   TrackedRun run;
+  const double interval = scene.frame(1).timestamp - scene.frame(0).timestamp;
+  double timestamp = scene.frame(frames.front()).timestamp;
   for (int i : frames) {
     SyntheticFrame f = scene.frame(i);
     if (i == blurred) cv::GaussianBlur(f.color, f.color, cv::Size(), sigma);
-    const auto r = tracker.track(f.color, f.depth, f.timestamp);
+    const auto r = tracker.track(f.color, f.depth, timestamp);
+    timestamp += interval;
     EXPECT_EQ(r.state, TrackingState::kOk) << "frame " << i;
     run.inliers[i] = r.inliers;
     if (r.keyframe) run.keyframes.push_back(i);
@@ -245,7 +250,8 @@ TEST(Tracker, ReplacesAKeyframeMadeFromABlurredFrame) {
 // A frame tracked far off the motion model's prediction (fr1/rpy's blurred turn: 10-17 deg off
 // with 50-100 inliers, where the true rate changes by ~3 deg per frame) is not trusted as a
 // keyframe: its depth would become points at that pose. Here frames 12-19 of the walk are
-// skipped, so frame 20 lands off the prediction and asks for a keyframe; the keyframe waits.
+// left out while the timestamps run on (track_frames), so frame 20 lands off the prediction as
+// after a sudden turn and asks for a keyframe; the keyframe waits.
 TEST(Tracker, PutsAKeyframeOffFromAFrameFarOffTheMotionModel) {
   const SyntheticRgbdScene scene;
   const int jump_to = 20;
@@ -300,6 +306,30 @@ TEST(Tracker, EarlyKeyframesWaitLongerForASlowCamera) {
   // The walk needs keyframes early: the moving camera gets them 4 frames apart, the slow one 12.
   EXPECT_EQ(smallest_gap(0.0), 4);
   EXPECT_EQ(smallest_gap(1e9), 12);
+}
+
+// The constant-velocity model over another interval than the one measured: a steady twist, so
+// three intervals' motion is the one interval's motion three times over.
+TEST(MotionModel, ScalesTheMotionToTheFrameInterval) {
+  Vector6d twist;
+  twist << 0.01, -0.02, 0.03, 0.02, -0.01, 0.015;
+  const SE3 one = SE3::exp(twist);
+  const double interval = 1.0 / 30.0;
+  const auto same = [](const SE3& a, const SE3& b) {
+    return translation_distance(a, b) < 1e-12 && rotation_distance(a, b) < 1e-12;
+  };
+  EXPECT_TRUE(same(scale_motion(one, interval, 3 * interval), one * one * one));
+  EXPECT_TRUE(same(scale_motion(one, 2 * interval, interval), SE3::exp(0.5 * twist)));
+  // Recorded timestamps' jitter (TUM fr1: 27-40 ms) keeps the motion as measured, bit for bit.
+  for (const double ratio : {1.46, 0.7}) {
+    const SE3 jittered = scale_motion(one, interval, ratio * interval);
+    EXPECT_EQ(jittered.translation(), one.translation());
+    EXPECT_EQ(jittered.so3().matrix(), one.so3().matrix());
+  }
+  // A long gap is capped at five intervals; no interval, no scaling.
+  EXPECT_TRUE(same(scale_motion(one, interval, 30 * interval), SE3::exp(5.0 * twist)));
+  EXPECT_TRUE(same(scale_motion(one, 0.0, interval), one));
+  EXPECT_TRUE(same(scale_motion(one, interval, -interval), one));
 }
 
 TEST(Tracker, WithoutASinkLocalizesInAFixedMapAndLeavesItAsItWas) {
