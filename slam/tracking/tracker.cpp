@@ -251,7 +251,18 @@ bool Tracker::track_frame(int image_rows, double timestamp, TrackingResult& resu
     }
     result.keyframe_ms = stage.elapsed_ms();
     recent_inliers_ = {matches_inliers_, recent_inliers_[0], recent_inliers_[1]};
-    last_tracked_centre_ = current_.cam_from_world.inverse().translation();
+    const Eigen::Vector3d centre = current_.cam_from_world.inverse().translation();
+    const double dt = last_.has_pose ? timestamp - last_.timestamp : 0.0;
+    if (dt > 0.0) {
+      // Smoothed over a few frames: one interval's centre moves by millimetres of noise.
+      const Eigen::Vector3d v = (centre - last_tracked_centre_) / dt;
+      last_tracked_velocity_ = has_tracked_velocity_ ? 0.5 * (last_tracked_velocity_ + v) : v;
+      has_tracked_velocity_ = true;
+    } else {
+      last_tracked_velocity_.setZero();
+      has_tracked_velocity_ = false;
+    }
+    last_tracked_centre_ = centre;
     last_tracked_time_ = timestamp;
   } else {
     has_velocity_ = false;
@@ -452,7 +463,7 @@ bool Tracker::relocalize() {
   reloc::RelocalizationPrior prior;
   const double dt = last_tracked_time_ ? current_.timestamp - *last_tracked_time_ : 0.0;
   if (last_tracked_time_ && dt >= 0.0 && dt < options_.reloc_gate_seconds) {
-    prior.world_centre = last_tracked_centre_;
+    prior.world_centre = last_tracked_centre_ + last_tracked_velocity_ * dt;
     // A mapper may close a loop meanwhile and move the map under the last pose; a localizer's
     // map stays put.
     const double base = sink_ ? options_.reloc_gate_m : options_.reloc_gate_localizing_m;

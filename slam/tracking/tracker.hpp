@@ -170,13 +170,16 @@ struct TrackingOptions {
   // A relocalization soon after tracking was lost must land where the camera can have got to
   // since its last tracked frame: a place that only looks alike (repeated rooms and textures of
   // a building) is farther. Within reloc_gate_seconds of that frame the new camera centre may
-  // be at most reloc_gate_m + reloc_gate_speed * dt away; later, or from a cold start,
-  // anywhere. (A 56-inlier relocalization 40 m away tore a continued twin map apart.) A
-  // candidate keyframe whose pose lands outside is passed over for the next one, and the
-  // keyframes around the last tracked place are tried before the BoW database's.
+  // be at most reloc_gate_m + reloc_gate_speed * dt from where the last frames' velocity takes
+  // it in dt; later, or from a cold start, anywhere. (A 56-inlier relocalization 40 m away tore
+  // a continued twin map apart.) A candidate keyframe whose pose lands outside is passed over
+  // for the next one, and the keyframes around the last tracked place are tried first.
   double reloc_gate_seconds = 3.0;
-  double reloc_gate_m = 0.5;      // metres (also covers a loop correction meanwhile)
-  double reloc_gate_speed = 2.0;  // metres per second: faster than a walking user
+  double reloc_gate_m = 0.5;  // metres (also covers a loop correction meanwhile)
+  // Metres per second the camera can gain or lose meanwhile: a walking user stops or starts
+  // within about 1 m/s. (Demo room under load: 2 m/s from the last centre accepted a 0.88 m
+  // look-alike 0.47 s after the loss; the walk went at 0.42 m/s.)
+  double reloc_gate_speed = 1.0;
   // The same for a localizer: its map does not move, so only the last pose's error and the
   // depth noise count. (Demo room, walk 1: a 59-inlier look-alike 1.0 m away, 0.27 s after the
   // last tracked frame, was inside 0.5 m + 2 m/s and put the walk 1.1 m off for 2 s.)
@@ -344,8 +347,11 @@ class Tracker {
   // when this frame has none): what a keyframe made from it records while the readout is
   // estimated (add_current_keyframe).
   Eigen::Vector3d pose_rate_ = Eigen::Vector3d::Zero();
-  // Camera centre and time of the last tracked frame (the relocalization gate).
+  // Camera centre, its velocity (m/s, world; zero after a frame that followed no tracked one)
+  // and time of the last tracked frame: the relocalization gate.
   Eigen::Vector3d last_tracked_centre_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d last_tracked_velocity_ = Eigen::Vector3d::Zero();
+  bool has_tracked_velocity_ = false;
   std::optional<double> last_tracked_time_;
   int relocalizations_ = 0;
   std::vector<KeyframeId> local_keyframes_;
