@@ -1,5 +1,5 @@
-// Keyframe culling: ORB-SLAM's redundancy test, an optional lower share on straight stretches,
-// and markers' last views kept (LocalMappingOptions::redundancy_straight says why it is off).
+// Keyframe culling: ORB-SLAM's redundancy test, a lower share on straight stretches
+// (LocalMappingOptions::redundancy_straight says why), and markers' last views kept.
 #include "slam/mapping/culling.hpp"
 
 #include <algorithm>

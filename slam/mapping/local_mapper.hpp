@@ -41,15 +41,15 @@ struct LocalMappingOptions {
   bool keyframe_culling = true;
   double redundancy = 0.9;  // a keyframe whose points are this often seen by 3 others is culled
   // ... and at this share when its neighbours before and after look within `straight_turn_deg`
-  // of its direction. Off by default (the same 90 %). Walking, each keyframe holds many points
-  // seen by one or two others only, so ORB-SLAM's 90 % never culls (twin building: the most
-  // redundant had 64 %), while its neighbours see what it sees. 0.2-0.4 keeps 7-Scenes' error
-  // 2.5-3 mm lower with half the keyframes, and 0.2 brings the twin to 1.3x ORB-SLAM2's
-  // keyframes, but the poses as tracked suffer: a hovering camera 3.9 -> 4.1-5.7 mm (the
-  // culling test), twin seed 1 13 -> 39 mm before its loop closed, and at 0.2-0.3 one of the
-  // demo room's maps lost its second walk's localization. docs/results/mapping-speed.md
-  // (2026-11-29, 19:45) has the sitting.
-  double redundancy_straight = 0.9;
+  // of its direction. Walking, each keyframe holds many points seen by one or two others only,
+  // so ORB-SLAM's 90 % never culls (twin building: the most redundant had 64 %), while its
+  // neighbours see what it sees. 0.2 brings the twin to 1.3x ORB-SLAM2's keyframes (230 -> 204)
+  // and keeps 7-Scenes' error 3 mm lower with half the keyframes; fr1/rpy turns more than 5
+  // degrees between keyframes and is left alone. It costs the poses as tracked a little (twin
+  // seed 2 10.2 -> 12.7 mm before the loop closes; the culling test's hovering camera 3.9 ->
+  // 4.1 mm). It was off until the localizer stopped accepting look-alike relocalizations: one
+  // demo room map lost its second walk to one. docs/results/mapping-speed.md has the sittings.
+  double redundancy_straight = 0.2;
   double straight_turn_deg = 5.0;
   // Rolling-shutter readout unknown (SharedMap::estimate_readout): the local BA estimates it
   // with the poses, under a prior of `readout_step` seconds on its change (the window's data
