@@ -478,7 +478,7 @@ bool Tracker::relocalize() {
   if (r.implausible > 0) {
     spdlog::info(
         "tracking: relocalization at frame {}: {} candidate(s) refused, the nearest {:.2f} m from "
-        "the last tracked pose {:.2f} s ago (at most {:.2f} m)",
+        "where the camera was heading {:.2f} s after its last tracked frame (at most {:.2f} m)",
         current_.id.value(), r.implausible, r.nearest_implausible_m, dt, prior.max_distance_m);
   }
   if (!r.success) return false;
