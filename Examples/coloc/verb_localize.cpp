@@ -24,11 +24,13 @@
 #include "Examples/coloc/verbs.hpp"
 #include "Examples/coloc/view_session.hpp"
 #include "fusion/osc_node.hpp"
+#include "registration/align/scan_cloud.hpp"
 #include "slam/core/atomic_file.hpp"
 #include "slam/core/error.hpp"
 #include "slam/core/input_file.hpp"
 #include "slam/core/progress.hpp"
 #include "slam/core/rigid.hpp"
+#include "slam/core/row_progress.hpp"
 #include "slam/core/timing.hpp"
 #include "slam/core/yaml_text.hpp"
 #include "slam/dataset/sequence.hpp"
@@ -64,6 +66,8 @@ struct LocalizeArgs {
   std::string mode;
   double seconds = 0.0;
   int odometry_frames = -1;  // -1: the localizer's default bridge
+  fs::path scan;             // anchor the poses to this scan (the map must be registered to it)
+  double scan_voxel = 0.01;  // metres: the scan thinned to this grid as it is read
   // bench
   ViewArgs view;  // --view: live in the browser
   int runs = 1;
@@ -273,11 +277,13 @@ void print_summary(const LocalizeArgs& args, const LocalizeInputs& in,
                 {"bridged", s.bridged},
                 {"lost", s.lost},
                 {"relocalizations", s.relocalizations},
+                {"anchored", s.anchored},
                 {"dropped", totals.dropped},
                 {"skipped", totals.skipped},
                 {"ms_per_frame_median", s.total_ms.quantile(0.5)},
                 {"ms_per_frame_p99", s.total_ms.quantile(0.99)},
                 {"ms_per_frame_max", s.total_ms.max()},
+                {"anchor_ms_median", s.anchor_ms.quantile(0.5)},
                 {"first_localized_frame", s.first_localized_frame},
                 {"ms_to_first_pose", s.ms_to_first_pose},
                 {"inliers_mean", totals.inliers_sum / localized},
@@ -313,6 +319,30 @@ void print_summary(const LocalizeArgs& args, const LocalizeInputs& in,
               << ", " << aligned->translation.rmse << " m after SE3 alignment\n";
 }
 
+// The scan as an anchor for the localized poses: read once, thinned as it streams in.
+std::shared_ptr<const slam::localize::ScanAnchor> load_scan_anchor(
+    const LocalizeArgs& args, const slam::localize::LocalizationMap& map) {
+  if (map.metadata.frame_name != "scan")
+    throw Error(
+        "--scan needs a map registered to the scan (coloc register); this map's frame is '" +
+            map.metadata.frame_name + "'",
+        {.file = args.map.string(), .field = "--scan"});
+  registration::align::ScanCloudOptions o;
+  o.voxel_size = args.scan_voxel;
+  registration::align::ScanCloudStats stats;
+  RowProgress progress("reading the scan", args.json);
+  const Stopwatch watch;
+  registration::render::PointCloud cloud =
+      registration::align::load_scan_cloud(args.scan, o, &stats, progress.callback());
+  progress.finish();
+  auto anchor = std::make_shared<const slam::localize::ScanAnchor>(cloud.points);
+  spdlog::info("scan anchor: {} ({} points read, {} kept), {} fine surfels, {:.0f} MB, {:.0f} ms",
+               args.scan.string(), stats.points_read, stats.points_kept,
+               anchor->grid().surfels(slam::localize::SurfaceGrid::Resolution::kFine),
+               anchor->grid().bytes() / 1e6, watch.elapsed_ms());
+  return anchor;
+}
+
 void run_localize(const LocalizeArgs& args) {
   // Unwritable outputs are errors before the run, not after it.
   std::optional<AtomicFile> probe;
@@ -337,6 +367,7 @@ void run_localize(const LocalizeArgs& args) {
   slam::localize::LocalizerOptions options = slam::localize::options_from_settings(in.settings);
   if (args.odometry_frames >= 0) options.odometry.max_frames = args.odometry_frames;
   Localizer localizer(*in.map, in.vocabulary, in.settings, options);
+  if (!args.scan.empty()) localizer.anchor_to_scan(load_scan_anchor(args, *in.map));
   // A viewer that cannot start (port in use) is a warning: localization goes on without it.
   std::unique_ptr<slam::view::ViewServer> view_server;
   std::unique_ptr<LiveLocalizationView> view;
@@ -416,6 +447,7 @@ Json bench_runs(const LocalizeArgs& args, const LocalizeInputs& in,
   Json rows = Json::array();
   for (int run = 0; run < args.runs; ++run) {
     Localizer localizer(*in.map, in.vocabulary, in.settings, options);
+    if (!args.scan.empty()) localizer.anchor_to_scan(load_scan_anchor(args, *in.map));
     std::vector<double> extract, pose, lmap, total, cpu;
     for (const auto& f : frames) {
       const ThreadCpuStopwatch cpu_watch;
@@ -573,6 +605,14 @@ void add_localize_verb(CLI::App& app, CLI::App& bench) {
                   "Outside the map, carry the pose on by visual odometry for at most this many "
                   "frames (state 3, 'odometry'; 0: report lost instead; default 150)")
       ->check(CLI::Range(0, 100000));
+  cmd->add_option(
+         "--scan", args->scan,
+         "The scan the map is registered to (E57, PLY, PCD): each pose is anchored to it "
+         "by aligning the frame's depth to the scan's surface (docs/modules/localization.md)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--scan-voxel", args->scan_voxel, "With --scan: thin the scan to this grid (m)")
+      ->check(CLI::Range(0.002, 0.2))
+      ->capture_default_str();
   cmd->add_option("--start", args->start, "First frame (0-based)");
   cmd->add_option("--frames", args->frames, "Frames to localize (0: to the end)");
   cmd->add_option("--repeat", args->repeat, "Replay the frames this many times")

@@ -5,6 +5,8 @@
 #include <malloc.h>
 #endif
 
+#include <spdlog/spdlog.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -153,6 +155,7 @@ void Localizer::start_tracking(int width, int height) {
       settings_.readout_time.value_or(map_.metadata.estimated_readout.value_or(0.0));
   geometry->check();
   geometry_ = geometry;
+  if (scan_anchor_) depth_sampler_.emplace(settings_.camera, scan_anchor_->options().stride_px);
   // No keyframe sink: the tracker localizes only and its first frame relocalizes.
   tracker_ =
       std::make_unique<tracking::Tracker>(map_.shared, nullptr, vocabulary_, geometry_,
@@ -160,7 +163,51 @@ void Localizer::start_tracking(int width, int height) {
   was_localized_ = false;
 }
 
+void Localizer::anchor_to_scan(std::shared_ptr<const ScanAnchor> anchor) {
+  scan_anchor_ = std::move(anchor);
+  depth_sampler_.reset();
+  last_anchored_.reset();
+  if (scan_anchor_ && geometry_)
+    depth_sampler_.emplace(settings_.camera, scan_anchor_->options().stride_px);
+}
+
+void Localizer::anchor(const cv::Mat& depth, LocalizationResult& r) {
+  if (!scan_anchor_ || !depth_sampler_ || depth.empty() || r.state == LocalizationState::kLost) {
+    last_anchored_.reset();
+    return;
+  }
+  const Stopwatch watch;
+  const ScanAnchorOptions& o = scan_anchor_->options();
+  const std::vector<Eigen::Vector3d> samples =
+      depth_sampler_->points(depth, o.min_depth_m, o.max_depth_m);
+  const SE3 visual = r.world_from_cam;
+  std::optional<AnchorResult> a;
+  if (last_anchored_) {
+    // The last anchored pose moved by the visual motion since: the anchor follows the scan.
+    const SE3 start = last_anchored_->first * last_anchored_->second.inverse() * visual;
+    a = scan_anchor_->align(samples, start, visual, false);
+  }
+  if (!a) a = scan_anchor_->align(samples, visual, visual, true);
+  if (a) {
+    r.world_from_cam = a->world_from_cam;
+    r.scan_anchored = true;
+    r.scan_inliers = a->inliers;
+    r.scan_rms_m = a->rms_m;
+    last_anchored_.emplace(a->world_from_cam, visual);
+    ++stats_.anchored;
+  } else {
+    last_anchored_.reset();
+  }
+  r.anchor_ms = watch.elapsed_ms();
+  if (a)
+    spdlog::debug(
+        "scan anchor: {} of {} depth samples on the surface, {} iterations, {:.1f} mm RMS",
+        a->inliers, a->samples, a->iterations, 1e3 * a->rms_m);
+  stats_.anchor_ms.add(r.anchor_ms);
+}
+
 void Localizer::reset() {
+  last_anchored_.reset();
   bridge_.reset();
   if (geometry_) start_tracking(image_width(settings_.camera), image_height(settings_.camera));
 }
@@ -199,6 +246,7 @@ LocalizationResult Localizer::localize(const cv::Mat& image, const cv::Mat& dept
     r.world_from_cam = bridged->cam_from_world.inverse();
     r.inliers = bridged->inliers;
   }
+  anchor(depth, r);
   const bool localized =
       r.state == LocalizationState::kTracking || r.state == LocalizationState::kRelocalized;
   ++stats_.frames;

@@ -18,7 +18,9 @@
 #include <filesystem>
 #include <memory>
 #include <opencv2/core/mat.hpp>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "slam/bow/vocabulary.hpp"
@@ -26,6 +28,7 @@
 #include "slam/core/se3.hpp"
 #include "slam/features/orb_extractor.hpp"
 #include "slam/localize/odometry_bridge.hpp"
+#include "slam/localize/scan_anchor.hpp"
 #include "slam/localize/time_histogram.hpp"
 #include "slam/map/shared_map.hpp"
 #include "slam/mapdb/mapdb.hpp"
@@ -99,19 +102,28 @@ struct LocalizationResult {
   // or bridged).
   double reprojection_rms_px = 0.0;
   KeyframeId reference;  // the keyframe sharing most points with the frame (invalid when lost)
+  // With a scan anchor (Localizer::anchor_to_scan): world_from_cam is the depth image aligned to
+  // the scan, started from the visual pose; scan_rms_m its point-to-plane RMS over scan_inliers
+  // depth samples. False when the alignment was refused (the visual pose is kept).
+  bool scan_anchored = false;
+  int scan_inliers = 0;
+  double scan_rms_m = 0.0;
   // Wall time of this call: feature extraction, the rest of tracking, and in it the initial pose
   // (motion model / relocalization) and the local-map tracking; total = the whole call.
   double extract_ms = 0.0, track_ms = 0.0, pose_ms = 0.0, local_map_ms = 0.0, total_ms = 0.0;
+  double anchor_ms = 0.0;  // the scan alignment (part of total)
 };
 
 struct LocalizerStats {
   // localized: in the map; bridged: kOdometry (neither localized nor lost).
   std::uint64_t frames = 0, localized = 0, bridged = 0, lost = 0;
   std::uint64_t relocalizations = 0;  // lost (or cold) -> localized transitions
+  std::uint64_t anchored = 0;         // localized or bridged frames aligned to the scan
   // First localized frame: its index (0-based) and the wall time from the first frame's start.
   std::int64_t first_localized_frame = -1;
   double ms_to_first_pose = 0.0;
-  TimeHistogram total_ms;  // per frame, extraction included (bounded memory)
+  TimeHistogram total_ms;   // per frame, extraction included (bounded memory)
+  TimeHistogram anchor_ms;  // per anchored frame: the scan alignment
 };
 
 class Localizer {
@@ -134,6 +146,11 @@ class Localizer {
   // Forget the motion: the next frame relocalizes in the whole map (e.g. after a jump).
   void reset();
 
+  // Anchors every localized or bridged pose to the scan (scan_anchor.hpp); null turns it off.
+  // The anchor's frame must be the map's (a map registered to that scan). Shared: several
+  // localizers may use one anchor.
+  void anchor_to_scan(std::shared_ptr<const ScanAnchor> anchor);
+
   const LocalizerStats& stats() const { return stats_; }
   // The last frame's keypoints and matched points (for a viewer); empty when it was not
   // localized, null before the first frame. Valid until the next localize().
@@ -143,6 +160,8 @@ class Localizer {
  private:
   void start_tracking(int width, int height);
   double reprojection_rms() const;  // of the tracker's last frame (takes the map lock)
+  // Replaces r's visual pose by the scan-anchored one when the alignment is accepted.
+  void anchor(const cv::Mat& depth, LocalizationResult& r);
 
   LocalizationMap& map_;
   const bow::Vocabulary& vocabulary_;
@@ -151,6 +170,11 @@ class Localizer {
   std::shared_ptr<const frame::FrameGeometry> geometry_;
   std::unique_ptr<tracking::Tracker> tracker_;
   OdometryBridge bridge_;
+  std::shared_ptr<const ScanAnchor> scan_anchor_;
+  std::optional<DepthSampler> depth_sampler_;
+  // The last anchored frame: its anchored and its visual pose (the next frame starts from the
+  // first moved by the visual motion since); nullopt after a refusal or a loss.
+  std::optional<std::pair<SE3, SE3>> last_anchored_;
   LocalizerStats stats_;
   bool was_localized_ = false;
   double first_frame_start_s_ = -1.0;  // steady clock, seconds
