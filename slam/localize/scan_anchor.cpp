@@ -16,17 +16,20 @@ namespace {
 using Matrix6 = Eigen::Matrix<double, 6, 6>;
 using Vector6 = Eigen::Matrix<double, 6, 1>;
 
+constexpr double kHuber = 1.5;  // standard deviations
+
 // One Gauss-Newton system of point-to-plane residuals, in the left perturbation
 // world_from_cam <- exp(omega, v) * world_from_cam with the unknowns ordered (omega, v).
 struct Normal {
   Matrix6 h = Matrix6::Zero();
   Vector6 g = Vector6::Zero();
   int inliers = 0;
-  double sse = 0.0;
+  double sse = 0.0;     // unweighted, metres^2
+  double weight = 0.0;  // sum of the samples' weights
 };
 
 Normal accumulate(const SurfaceGrid& grid, const std::vector<Eigen::Vector3d>& points_cam,
-                  const SE3& world_from_cam, double gate, double huber) {
+                  const SE3& world_from_cam, double gate, const ScanAnchorOptions& o) {
   // Coarse surfels until the gate fits the fine level's 27-voxel block.
   const SurfaceGrid::Resolution level = gate > 2.0 * grid.options().fine_voxel_m
                                             ? SurfaceGrid::Resolution::kCoarse
@@ -38,12 +41,19 @@ Normal accumulate(const SurfaceGrid& grid, const std::vector<Eigen::Vector3d>& p
     if (!s) continue;
     const Eigen::Vector3d normal = s->normal.cast<double>();
     const double r = normal.dot(y - s->point.cast<double>());
-    const double w = std::abs(r) <= huber ? 1.0 : huber / std::abs(r);
+    // Weight 1 / sigma^2 with the depth's noise growing as z^2 (structured light and stereo
+    // alike), Huber beyond 1.5 sigma.
+    const double z2 = p.z() * p.z();
+    const double sigma = std::sqrt(o.surface_sigma_m * o.surface_sigma_m +
+                                   o.depth_sigma_at_1m * o.depth_sigma_at_1m * z2 * z2);
+    const double a = std::abs(r) / sigma;
+    const double w = (a <= kHuber ? 1.0 : kHuber / a) / (sigma * sigma);
     Vector6 j;
     j << y.cross(normal), normal;
     n.h.selfadjointView<Eigen::Lower>().rankUpdate(j, w);
     n.g += w * r * j;
     n.sse += r * r;
+    n.weight += w;
     ++n.inliers;
   }
   n.h = n.h.selfadjointView<Eigen::Lower>();
@@ -59,9 +69,12 @@ ScanAnchorOptions checked(ScanAnchorOptions options) {
 
 void ScanAnchorOptions::check() const {
   if (stride_px < 1) throw Error("ScanAnchorOptions.stride_px must be >= 1");
+  if (max_samples < min_inliers)
+    throw Error("ScanAnchorOptions.max_samples must be >= min_inliers");
   if (!(min_depth_m > 0.0 && max_depth_m > min_depth_m))
     throw Error("ScanAnchorOptions: need 0 < min_depth_m < max_depth_m");
-  if (!(huber_m > 0.0)) throw Error("ScanAnchorOptions.huber_m must be > 0");
+  if (!(surface_sigma_m > 0.0)) throw Error("ScanAnchorOptions.surface_sigma_m must be > 0");
+  if (!(depth_sigma_at_1m >= 0.0)) throw Error("ScanAnchorOptions.depth_sigma_at_1m must be >= 0");
   for (const auto* gates : {&cold_gates, &tracking_gates}) {
     if (gates->empty()) throw Error("ScanAnchorOptions: a gate schedule is empty");
     for (const double g : *gates)
@@ -74,6 +87,8 @@ void ScanAnchorOptions::check() const {
   if (!(max_rms_m > 0.0)) throw Error("ScanAnchorOptions.max_rms_m must be > 0");
   if (!(min_inlier_ratio >= 0.0 && min_inlier_ratio <= 1.0))
     throw Error("ScanAnchorOptions.min_inlier_ratio must be in [0, 1]");
+  if (!(max_tracking_step_m > 0.0 && max_tracking_step_rad > 0.0))
+    throw Error("ScanAnchorOptions: max tracking steps must be > 0");
   if (!(max_offset_m > 0.0 && max_offset_rad > 0.0))
     throw Error("ScanAnchorOptions: max offsets must be > 0");
   grid.check();
@@ -109,12 +124,21 @@ std::vector<Eigen::Vector3d> DepthSampler::points(const cv::Mat& depth, double m
 ScanAnchor::ScanAnchor(const std::vector<Eigen::Vector3f>& scan_points, ScanAnchorOptions options)
     : options_(checked(std::move(options))), grid_(scan_points, options_.grid) {}
 
-std::optional<AnchorResult> ScanAnchor::align(const std::vector<Eigen::Vector3d>& points_cam,
+std::optional<AnchorResult> ScanAnchor::align(const std::vector<Eigen::Vector3d>& samples,
                                               const SE3& start_world_from_cam,
                                               const SE3& visual_world_from_cam, bool cold) const {
-  if (static_cast<int>(points_cam.size()) < options_.min_inliers) return std::nullopt;
+  if (static_cast<int>(samples.size()) < options_.min_inliers) return std::nullopt;
+  // Evenly thinned to max_samples (the samples are in image order: every k-th keeps the spread).
+  std::vector<Eigen::Vector3d> thinned;
+  const std::size_t max_samples = static_cast<std::size_t>(options_.max_samples);
+  if (samples.size() > max_samples) {
+    thinned.reserve(max_samples);
+    const double step = static_cast<double>(samples.size()) / static_cast<double>(max_samples);
+    for (std::size_t k = 0; k < max_samples; ++k)
+      thinned.push_back(samples[static_cast<std::size_t>(static_cast<double>(k) * step)]);
+  }
+  const std::vector<Eigen::Vector3d>& points_cam = thinned.empty() ? samples : thinned;
   const std::vector<double>& gates = cold ? options_.cold_gates : options_.tracking_gates;
-  const double w_point = 1.0 / (options_.huber_m * options_.huber_m);
   Vector6 prior_w;
   prior_w << Eigen::Vector3d::Constant(1.0 / (options_.prior_sigma_rad * options_.prior_sigma_rad)),
       Eigen::Vector3d::Constant(1.0 / (options_.prior_sigma_m * options_.prior_sigma_m));
@@ -123,15 +147,15 @@ std::optional<AnchorResult> ScanAnchor::align(const std::vector<Eigen::Vector3d>
   Normal last;
   int iterations = 0;
   for (std::size_t k = 0; k < gates.size(); ++k) {
-    last = accumulate(grid_, points_cam, world_from_cam, gates[k], options_.huber_m);
+    last = accumulate(grid_, points_cam, world_from_cam, gates[k], options_);
     ++iterations;
     if (last.inliers < options_.min_inliers) return std::nullopt;
     // The prior's residual: this pose's left offset from the start, (omega, v).
     const SE3 offset = world_from_cam * start_world_from_cam.inverse();
     Vector6 e;
     e << offset.so3().log(), offset.translation();
-    const Matrix6 h = w_point * last.h + Matrix6(prior_w.asDiagonal());
-    const Vector6 g = w_point * last.g + prior_w.cwiseProduct(e);
+    const Matrix6 h = last.h + Matrix6(prior_w.asDiagonal());
+    const Vector6 g = last.g + prior_w.cwiseProduct(e);
     const Vector6 step = -h.ldlt().solve(g);
     if (!step.allFinite()) return std::nullopt;
     world_from_cam = SE3(SO3::exp(step.head<3>()), step.tail<3>()) * world_from_cam;
@@ -150,10 +174,17 @@ std::optional<AnchorResult> ScanAnchor::align(const std::vector<Eigen::Vector3d>
   r.rms_m = std::sqrt(last.sse / std::max(1, last.inliers));
   r.iterations = iterations;
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(last.h.bottomRightCorner<3, 3>());
-  r.conditioning = eig.eigenvalues()[0] / std::max(1, last.inliers);
+  r.conditioning = last.weight > 0.0 ? eig.eigenvalues()[0] / last.weight : 0.0;
   if (r.rms_m > options_.max_rms_m ||
       r.inliers < options_.min_inlier_ratio * static_cast<double>(r.samples))
     return std::nullopt;
+  if (!cold) {
+    const SE3 step = world_from_cam * start_world_from_cam.inverse();
+    if ((world_from_cam.translation() - start_world_from_cam.translation()).norm() >
+            options_.max_tracking_step_m ||
+        step.so3().log().norm() > options_.max_tracking_step_rad)
+      return std::nullopt;
+  }
   const SE3 moved = world_from_cam * visual_world_from_cam.inverse();
   if ((world_from_cam.translation() - visual_world_from_cam.translation()).norm() >
           options_.max_offset_m ||

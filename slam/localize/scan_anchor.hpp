@@ -34,9 +34,15 @@ namespace coloc::slam::localize {
 
 struct ScanAnchorOptions {
   int stride_px = 8;  // depth samples on this grid (640x480: 4,800 at most)
+  // At most this many of them, spread evenly over the image: the cost per frame stays about
+  // 10 ms whatever share of the image has depth (7-Scenes ~2,000 valid, the twin 4,800).
+  int max_samples = 5000;
   double min_depth_m = 0.2, max_depth_m = 5.0;
-  // Residuals beyond this are down-weighted (Huber), metres.
-  double huber_m = 0.01;
+  // A sample's point-to-plane standard deviation: the scan and its surfel model, and the
+  // depth's noise, which grows as z^2 (Kinect v1: 1.4 mm at 1 m, 23 mm at 4 m; a D455 is
+  // of that order). Residuals beyond 1.5 sigma are down-weighted (Huber).
+  double surface_sigma_m = 0.005;
+  double depth_sigma_at_1m = 0.0015;
   // Cold start (coarse then fine) and tracking (fine) schedules: the correspondence gate of
   // each iteration, metres.
   std::vector<double> cold_gates{0.10, 0.10, 0.10, 0.10, 0.10, 0.10, 0.08,  0.08,  0.04,  0.04,
@@ -56,6 +62,9 @@ struct ScanAnchorOptions {
   // Anchored and visual pose may differ by the registration's error plus (unregistered depth)
   // the colour-depth offset; beyond these the alignment found another surface.
   double max_offset_m = 0.25, max_offset_rad = 0.15;
+  // While tracking, the start is good to the visual motion's error over one frame (a few mm);
+  // an alignment that moves it further slid along the surface.
+  double max_tracking_step_m = 0.05, max_tracking_step_rad = 0.05;
   SurfaceGridOptions grid;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
@@ -83,8 +92,9 @@ struct AnchorResult {
   int samples = 0;     // valid depth samples
   double rms_m = 0.0;  // point-to-plane RMS of the inliers
   int iterations = 0;
-  // Smallest eigenvalue of the samples' translation information over the inliers: near 0 when
-  // the view constrains a direction poorly (one wall), then held there by the prior.
+  // Smallest eigenvalue of the samples' translation information over their summed weight (the
+  // weighted mean of n n^T: up to 1/3): near 0 when the view constrains a direction poorly (one
+  // wall), which the prior then holds.
   double conditioning = 0.0;
 };
 
@@ -94,11 +104,11 @@ class ScanAnchor {
   // Throws coloc::Error for invalid options or a scan without planar surface.
   ScanAnchor(const std::vector<Eigen::Vector3f>& scan_points, ScanAnchorOptions options = {});
 
-  // Aligns one frame's depth samples (`points_cam`, DepthSampler::points) to the scan from
+  // Aligns one frame's depth samples (camera frame, DepthSampler::points) to the scan from
   // `start_world_from_cam`; `cold` selects the coarse-to-fine schedule. nullopt when the
   // alignment is refused (see above); `visual_world_from_cam` is the pose it is checked against.
   // Const: one anchor may serve several localizers.
-  std::optional<AnchorResult> align(const std::vector<Eigen::Vector3d>& points_cam,
+  std::optional<AnchorResult> align(const std::vector<Eigen::Vector3d>& samples,
                                     const SE3& start_world_from_cam,
                                     const SE3& visual_world_from_cam, bool cold) const;
 
