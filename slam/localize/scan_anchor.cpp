@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "slam/core/error.hpp"
+#include "slam/core/parallel.hpp"
 
 namespace coloc::slam::localize {
 
@@ -28,14 +29,13 @@ struct Normal {
   double weight = 0.0;  // sum of the samples' weights
 };
 
-Normal accumulate(const SurfaceGrid& grid, const std::vector<Eigen::Vector3d>& points_cam,
-                  const SE3& world_from_cam, double gate, const ScanAnchorOptions& o) {
-  // Coarse surfels until the gate fits the fine level's 27-voxel block.
-  const SurfaceGrid::Resolution level = gate > 2.0 * grid.options().fine_voxel_m
-                                            ? SurfaceGrid::Resolution::kCoarse
-                                            : SurfaceGrid::Resolution::kFine;
-  Normal n;
-  for (const Eigen::Vector3d& p : points_cam) {
+// The samples [begin, end) into `n`.
+void accumulate_range(const SurfaceGrid& grid, SurfaceGrid::Resolution level,
+                      const std::vector<Eigen::Vector3d>& points_cam, std::size_t begin,
+                      std::size_t end, const SE3& world_from_cam, double gate,
+                      const ScanAnchorOptions& o, Normal& n) {
+  for (std::size_t i = begin; i < end; ++i) {
+    const Eigen::Vector3d& p = points_cam[i];
     const Eigen::Vector3d y = world_from_cam * p;
     const Surfel* s = grid.nearest(level, y, gate);
     if (!s) continue;
@@ -56,6 +56,31 @@ Normal accumulate(const SurfaceGrid& grid, const std::vector<Eigen::Vector3d>& p
     n.weight += w;
     ++n.inliers;
   }
+}
+
+Normal accumulate(const SurfaceGrid& grid, const std::vector<Eigen::Vector3d>& points_cam,
+                  const SE3& world_from_cam, double gate, const ScanAnchorOptions& o) {
+  // Coarse surfels until the gate fits the fine level's 27-voxel block.
+  const SurfaceGrid::Resolution level = gate > 2.0 * grid.options().fine_voxel_m
+                                            ? SurfaceGrid::Resolution::kCoarse
+                                            : SurfaceGrid::Resolution::kFine;
+  // One share of the samples per thread, summed in a fixed order: the result does not depend
+  // on the thread count's timing.
+  const std::size_t shares = static_cast<std::size_t>(worker_count(o.threads));
+  std::vector<Normal> parts(shares);
+  const std::size_t per = (points_cam.size() + shares - 1) / shares;
+  parallel_for(shares, o.threads, [&](std::size_t k) {
+    accumulate_range(grid, level, points_cam, k * per, std::min(points_cam.size(), (k + 1) * per),
+                     world_from_cam, gate, o, parts[k]);
+  });
+  Normal n;
+  for (const Normal& part : parts) {
+    n.h += part.h;
+    n.g += part.g;
+    n.inliers += part.inliers;
+    n.sse += part.sse;
+    n.weight += part.weight;
+  }
   n.h = n.h.selfadjointView<Eigen::Lower>();
   return n;
 }
@@ -69,6 +94,7 @@ ScanAnchorOptions checked(ScanAnchorOptions options) {
 
 void ScanAnchorOptions::check() const {
   if (stride_px < 1) throw Error("ScanAnchorOptions.stride_px must be >= 1");
+  if (threads < 0) throw Error("ScanAnchorOptions.threads must be >= 0");
   if (max_samples < min_inliers)
     throw Error("ScanAnchorOptions.max_samples must be >= min_inliers");
   if (!(min_depth_m > 0.0 && max_depth_m > min_depth_m))

@@ -65,6 +65,9 @@ struct ScanAnchorOptions {
   // While tracking, the start is good to the visual motion's error over one frame (a few mm);
   // an alignment that moves it further slid along the surface.
   double max_tracking_step_m = 0.05, max_tracking_step_rad = 0.05;
+  // Threads that share a frame's samples (0: one per core; 1: the caller's alone). The result
+  // is the same for any count (up to the summation order of floating point).
+  int threads = 2;
   SurfaceGridOptions grid;
   // Throws coloc::Error naming the first invalid field.
   void check() const;
