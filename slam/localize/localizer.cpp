@@ -183,11 +183,16 @@ void Localizer::anchor(const cv::Mat& depth, LocalizationResult& r) {
   const SE3 visual = r.world_from_cam;
   std::optional<AnchorResult> a;
   if (last_anchored_) {
-    // The last anchored pose moved by the visual motion since: the anchor follows the scan.
+    // The last anchored pose moved by the visual motion since: the anchor follows the scan. A
+    // refused step starts over cold from the visual pose, then (where odometry bridges the
+    // visual pose and it may have drifted) cold from the same start.
     const SE3 start = last_anchored_->first * last_anchored_->second.inverse() * visual;
     a = scan_anchor_->align(samples, start, visual, false);
+    if (!a) a = scan_anchor_->align(samples, visual, visual, true);
+    if (!a) a = scan_anchor_->align(samples, start, visual, true);
+  } else {
+    a = scan_anchor_->align(samples, visual, visual, true);
   }
-  if (!a) a = scan_anchor_->align(samples, visual, visual, true);
   if (a) {
     r.world_from_cam = a->world_from_cam;
     r.scan_anchored = true;

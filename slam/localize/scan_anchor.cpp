@@ -115,6 +115,8 @@ void ScanAnchorOptions::check() const {
     throw Error("ScanAnchorOptions.min_inlier_ratio must be in [0, 1]");
   if (!(max_tracking_step_m > 0.0 && max_tracking_step_rad > 0.0))
     throw Error("ScanAnchorOptions: max tracking steps must be > 0");
+  if (!(max_cold_offset_m > 0.0 && max_cold_offset_rad > 0.0))
+    throw Error("ScanAnchorOptions: max cold offsets must be > 0");
   if (!(max_offset_m > 0.0 && max_offset_rad > 0.0))
     throw Error("ScanAnchorOptions: max offsets must be > 0");
   grid.check();
@@ -204,13 +206,13 @@ std::optional<AnchorResult> ScanAnchor::align(const std::vector<Eigen::Vector3d>
   if (r.rms_m > options_.max_rms_m ||
       r.inliers < options_.min_inlier_ratio * static_cast<double>(r.samples))
     return std::nullopt;
-  if (!cold) {
-    const SE3 step = world_from_cam * start_world_from_cam.inverse();
-    if ((world_from_cam.translation() - start_world_from_cam.translation()).norm() >
-            options_.max_tracking_step_m ||
-        step.so3().log().norm() > options_.max_tracking_step_rad)
-      return std::nullopt;
-  }
+  // How far the alignment moved its start, and how far the result is from the visual pose.
+  const SE3 step = world_from_cam * start_world_from_cam.inverse();
+  if ((world_from_cam.translation() - start_world_from_cam.translation()).norm() >
+          (cold ? options_.max_cold_offset_m : options_.max_tracking_step_m) ||
+      step.so3().log().norm() >
+          (cold ? options_.max_cold_offset_rad : options_.max_tracking_step_rad))
+    return std::nullopt;
   const SE3 moved = world_from_cam * visual_world_from_cam.inverse();
   if ((world_from_cam.translation() - visual_world_from_cam.translation()).norm() >
           options_.max_offset_m ||

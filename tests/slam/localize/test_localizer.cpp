@@ -2,9 +2,11 @@
 // saved with the SQLite map database (localize_fixture.hpp), loaded and localized in.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <fstream>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
@@ -193,6 +195,57 @@ TEST(Localizer, BridgesByOdometryWhereTheMapHasNoPointsThenReportsLost) {
   EXPECT_EQ(s.bridged, 20u);
   EXPECT_EQ(s.lost, 1u);
   EXPECT_STREQ(to_string(LocalizationState::kOdometry), "odometry");
+}
+
+// The walk's own depth fused with the mapped poses, moved by `shift` (map frame): a scan that
+// agrees with the map except for that offset.
+std::vector<Eigen::Vector3f> shifted_scan(const Inputs& in, const Eigen::Vector3d& shift) {
+  const DepthSampler sampler(in.settings.camera, 4);
+  std::vector<Eigen::Vector3f> cloud;
+  for (std::size_t i = 0; i < in.sequence->size(); i += 10) {
+    const dataset::Frame f = in.sequence->frame(i);
+    const auto pose = mapped_pose(fixture().mapped, f.timestamp);
+    if (!pose) continue;
+    for (const Eigen::Vector3d& p : sampler.points(f.depth, 0.2, 5.0))
+      cloud.push_back((*pose * p + shift).cast<float>());
+  }
+  return cloud;
+}
+
+// Anchored poses follow the scan, not the map: with the scan 3 cm off the map, every localized
+// frame is anchored and lands 3 cm off its mapped pose; a scan 40 cm off (beyond what a
+// registration leaves) is refused on every frame and the visual poses stay.
+TEST(Localizer, AnchoredPosesFollowTheScanNotTheMap) {
+  Inputs in = open_inputs();
+  const Eigen::Vector3d shift(0.03, -0.02, 0.01);
+  Localizer l = make_localizer(in);
+  l.anchor_to_scan(std::make_shared<const ScanAnchor>(shifted_scan(in, shift)));
+  std::vector<double> errors;
+  for (std::size_t i = 0; i < in.sequence->size(); i += 2) {
+    const LocalizationResult r = localize_frame(l, *in.sequence, i);
+    ASSERT_NE(r.state, LocalizationState::kLost) << "frame " << i;
+    ASSERT_TRUE(r.scan_anchored) << "frame " << i;
+    EXPECT_GT(r.scan_inliers, 300);
+    const auto m = mapped_pose(fixture().mapped, r.timestamp);
+    ASSERT_TRUE(m);
+    errors.push_back((r.world_from_cam.translation() - (m->translation() + shift)).norm());
+  }
+  std::sort(errors.begin(), errors.end());
+  EXPECT_LT(errors[errors.size() / 2], 0.004) << "median metres from mapped pose + shift";
+  EXPECT_LT(errors[errors.size() * 9 / 10], 0.008) << "90th percentile";
+  EXPECT_EQ(l.stats().anchored, l.stats().frames);
+
+  Localizer refused = make_localizer(in);
+  refused.anchor_to_scan(
+      std::make_shared<const ScanAnchor>(shifted_scan(in, Eigen::Vector3d(0.4, 0.0, 0.0))));
+  for (std::size_t i = 0; i < 20; ++i) {
+    const LocalizationResult r = localize_frame(refused, *in.sequence, i);
+    EXPECT_FALSE(r.scan_anchored) << "frame " << i;
+    const auto m = mapped_pose(fixture().mapped, r.timestamp);
+    ASSERT_TRUE(m);
+    EXPECT_LT((r.world_from_cam.translation() - m->translation()).norm(), 0.01) << "frame " << i;
+  }
+  EXPECT_EQ(refused.stats().anchored, 0u);
 }
 
 // The map is read only: after localizing (tracking, loss, relocalization, reset) it equals a

@@ -105,11 +105,14 @@ SE3 look_at(const Eigen::Vector3d& centre, const Eigen::Vector3d& target) {
   return SE3(SO3::from_matrix(r), centre);
 }
 
+// `pose` turned by `radians` about its own centre and moved by `metres`, in random directions.
 SE3 perturbed(const SE3& pose, double metres, double radians, std::mt19937& rng) {
   std::normal_distribution<double> n(0.0, 1.0);
   const Eigen::Vector3d dt = Eigen::Vector3d(n(rng), n(rng), n(rng)).normalized() * metres;
   const Eigen::Vector3d dr = Eigen::Vector3d(n(rng), n(rng), n(rng)).normalized() * radians;
-  return SE3(SO3::exp(dr), dt) * pose;
+  SE3 out = pose * SE3(SO3::exp(dr), Eigen::Vector3d::Zero());
+  out.translation() += dt;
+  return out;
 }
 
 double angle_between(const SE3& a, const SE3& b) {
