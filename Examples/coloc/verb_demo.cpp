@@ -181,6 +181,58 @@ void demo_evaluation(const std::filesystem::path& data, const std::filesystem::p
 }
 
 // The pipeline on the digital twin: scan, markers, SLAM, evaluation, the saved map.
+// The files the markerless step works on (made by the earlier steps of demo_twin).
+struct MarkerlessInputs {
+  std::string map_db, scan_e57, sequence;
+  std::filesystem::path walk;
+};
+
+// The map registered without markers, the second walk localized in it, then again anchored to
+// the scan.
+void demo_markerless(const DemoArgs& a, const std::filesystem::path& out,
+                     const MarkerlessInputs& in, int& step, DemoSummary& summary) {
+  step_header(++step,
+              "Without markers: the same map registered by its dense cloud (levelled by the "
+              "IMU's gravity, no guess) and bent onto the scan's surface; the second walk "
+              "localized in it, then again with each pose anchored to the scan");
+  if (a.quick) {
+    std::printf("  skipped in --quick (about a minute): run coloc demo\n");
+    return;
+  }
+  const std::string markerless_db = (out / "twin_map_markerless.db").string();
+  Json registered;
+  try {
+    registered = capture_verb({"register", "--map", in.map_db, "--scan", in.scan_e57, "--sequence",
+                               in.sequence, "--out", markerless_db});
+  } catch (const CliFailure& e) {
+    // The verdict refused (an ambiguous or weak fit): said, not hidden, and the chain goes on.
+    std::printf("  refused without markers: %s\n", e.what());
+    return;
+  }
+  std::printf("  fitness %.3f (runner-up %.3f), colour correlation %.2f, levelled by gravity: %s\n",
+              registered.value("fitness", 0.0), registered.value("runner_up_fitness", 0.0),
+              registered["colour_correlation"].is_number()
+                  ? registered["colour_correlation"].get<double>()
+                  : 0.0,
+              registered.value("levelled_by_gravity", false) ? "yes" : "no");
+  const Json walked = capture_verb({"localize", "--map", markerless_db, "--sequence",
+                                    (in.walk / "sequence").string(), "--trajectory",
+                                    (out / "twin_walk1_localized_markerless.txt").string()});
+  if (walked.contains("ate_unaligned_rmse_m") && walked["ate_unaligned_rmse_m"].is_number())
+    summary.markerless_colocation_m = walked["ate_unaligned_rmse_m"].get<double>();
+  std::printf("  localized %d of %d frames\n", walked.value("localized", 0),
+              walked.value("frames", 0));
+  // The same walk with each pose's depth aligned to the scan (coloc localize --scan).
+  const Json anchored = capture_verb(
+      {"localize", "--map", markerless_db, "--sequence", (in.walk / "sequence").string(), "--scan",
+       in.scan_e57, "--trajectory", (out / "twin_walk1_localized_anchored.txt").string()});
+  if (anchored.contains("ate_unaligned_rmse_m") && anchored["ate_unaligned_rmse_m"].is_number())
+    summary.anchored_colocation_m = anchored["ate_unaligned_rmse_m"].get<double>();
+  std::printf("  anchored to the scan: %d of %d frames, %.1f ms a frame for the alignment\n",
+              anchored.value("anchored", 0), anchored.value("frames", 0),
+              anchored.value("anchor_ms_median", 0.0));
+}
+
 void demo_twin(const DemoArgs& a, const std::filesystem::path& out, int& step,
                DemoSummary& summary) {
   const std::filesystem::path twin = twin_dir(a, out, "");
@@ -307,46 +359,7 @@ void demo_twin(const DemoArgs& a, const std::filesystem::path& out, int& step,
                      " head poses: the headset or the localizer did not reach it");
   }
 
-  step_header(++step,
-              "Without markers: the same map registered by its dense cloud (levelled by the "
-              "IMU's gravity, no guess) and bent onto the scan's surface; the second walk "
-              "localized in it, then again with each pose anchored to the scan");
-  if (a.quick) {
-    std::printf("  skipped in --quick (about a minute): run coloc demo\n");
-    return;
-  }
-  const std::string markerless_db = (out / "twin_map_markerless.db").string();
-  Json registered;
-  try {
-    registered = capture_verb({"register", "--map", map_db, "--scan", scan_e57, "--sequence",
-                               sequence, "--out", markerless_db});
-  } catch (const CliFailure& e) {
-    // The verdict refused (an ambiguous or weak fit): said, not hidden, and the chain goes on.
-    std::printf("  refused without markers: %s\n", e.what());
-    return;
-  }
-  std::printf("  fitness %.3f (runner-up %.3f), colour correlation %.2f, levelled by gravity: %s\n",
-              registered.value("fitness", 0.0), registered.value("runner_up_fitness", 0.0),
-              registered["colour_correlation"].is_number()
-                  ? registered["colour_correlation"].get<double>()
-                  : 0.0,
-              registered.value("levelled_by_gravity", false) ? "yes" : "no");
-  const Json walked =
-      capture_verb({"localize", "--map", markerless_db, "--sequence", (walk / "sequence").string(),
-                    "--trajectory", (out / "twin_walk1_localized_markerless.txt").string()});
-  if (walked.contains("ate_unaligned_rmse_m") && walked["ate_unaligned_rmse_m"].is_number())
-    summary.markerless_colocation_m = walked["ate_unaligned_rmse_m"].get<double>();
-  std::printf("  localized %d of %d frames\n", walked.value("localized", 0),
-              walked.value("frames", 0));
-  // The same walk with each pose's depth aligned to the scan (coloc localize --scan).
-  const Json anchored = capture_verb(
-      {"localize", "--map", markerless_db, "--sequence", (walk / "sequence").string(), "--scan",
-       scan_e57, "--trajectory", (out / "twin_walk1_localized_anchored.txt").string()});
-  if (anchored.contains("ate_unaligned_rmse_m") && anchored["ate_unaligned_rmse_m"].is_number())
-    summary.anchored_colocation_m = anchored["ate_unaligned_rmse_m"].get<double>();
-  std::printf("  anchored to the scan: %d of %d frames, %.1f ms a frame for the alignment\n",
-              anchored.value("anchored", 0), anchored.value("frames", 0),
-              anchored.value("anchor_ms_median", 0.0));
+  demo_markerless(a, out, {map_db, scan_e57, sequence, walk}, step, summary);
 }
 
 // A shared session of two VR systems on the twin: each calibrated to the anchor camera by a

@@ -343,14 +343,18 @@ std::shared_ptr<const slam::localize::ScanAnchor> load_scan_anchor(
   return anchor;
 }
 
-void run_localize(const LocalizeArgs& args) {
-  // Unwritable outputs are errors before the run, not after it.
+// What can be refused before any work: the input choice and an unwritable output.
+void check_before_run(const LocalizeArgs& args) {
   std::optional<AtomicFile> probe;
   if (!args.trajectory.empty()) probe.emplace(args.trajectory);
   probe.reset();
   if (args.sequence.empty() == args.camera.empty())
     throw CLI::ValidationError(
         "give one of --sequence DIR or --camera auto|/dev/videoN|replay:DIR");
+}
+
+void run_localize(const LocalizeArgs& args) {
+  check_before_run(args);
   if (!args.camera.empty()) block_stop_signals();
   LocalizeInputs in = load_inputs(args);
 
@@ -556,6 +560,17 @@ void run_bench(const LocalizeArgs& args) {
                 {"cold_start", cold}});
 }
 
+void add_scan_options(CLI::App& cmd, LocalizeArgs& args) {
+  cmd.add_option(
+         "--scan", args.scan,
+         "The scan the map is registered to (E57, PLY, PCD): each pose is anchored to it "
+         "by aligning the frame's depth to the scan's surface (docs/modules/localization.md)")
+      ->check(CLI::ExistingFile);
+  cmd.add_option("--scan-voxel", args.scan_voxel, "With --scan: thin the scan to this grid (m)")
+      ->check(CLI::Range(0.002, 0.2))
+      ->capture_default_str();
+}
+
 }  // namespace
 
 void add_localize_verb(CLI::App& app, CLI::App& bench) {
@@ -605,14 +620,7 @@ void add_localize_verb(CLI::App& app, CLI::App& bench) {
                   "Outside the map, carry the pose on by visual odometry for at most this many "
                   "frames (state 3, 'odometry'; 0: report lost instead; default 150)")
       ->check(CLI::Range(0, 100000));
-  cmd->add_option(
-         "--scan", args->scan,
-         "The scan the map is registered to (E57, PLY, PCD): each pose is anchored to it "
-         "by aligning the frame's depth to the scan's surface (docs/modules/localization.md)")
-      ->check(CLI::ExistingFile);
-  cmd->add_option("--scan-voxel", args->scan_voxel, "With --scan: thin the scan to this grid (m)")
-      ->check(CLI::Range(0.002, 0.2))
-      ->capture_default_str();
+  add_scan_options(*cmd, *args);
   cmd->add_option("--start", args->start, "First frame (0-based)");
   cmd->add_option("--frames", args->frames, "Frames to localize (0: to the end)");
   cmd->add_option("--repeat", args->repeat, "Replay the frames this many times")
