@@ -85,6 +85,12 @@ Normal accumulate(const SurfaceGrid& grid, const std::vector<Eigen::Vector3d>& p
   return n;
 }
 
+// Whether two camera poses are within `metres` (centres) and `radians` (orientations).
+bool within(const SE3& a, const SE3& b, double metres, double radians) {
+  return (a.translation() - b.translation()).norm() <= metres &&
+         (a.so3() * b.so3().inverse()).log().norm() <= radians;
+}
+
 ScanAnchorOptions checked(ScanAnchorOptions options) {
   options.check();
   return options;
@@ -207,16 +213,12 @@ std::optional<AnchorResult> ScanAnchor::align(const std::vector<Eigen::Vector3d>
       r.inliers < options_.min_inlier_ratio * static_cast<double>(r.samples))
     return std::nullopt;
   // How far the alignment moved its start, and how far the result is from the visual pose.
-  const SE3 step = world_from_cam * start_world_from_cam.inverse();
-  if ((world_from_cam.translation() - start_world_from_cam.translation()).norm() >
-          (cold ? options_.max_cold_offset_m : options_.max_tracking_step_m) ||
-      step.so3().log().norm() >
-          (cold ? options_.max_cold_offset_rad : options_.max_tracking_step_rad))
-    return std::nullopt;
-  const SE3 moved = world_from_cam * visual_world_from_cam.inverse();
-  if ((world_from_cam.translation() - visual_world_from_cam.translation()).norm() >
-          options_.max_offset_m ||
-      moved.so3().log().norm() > options_.max_offset_rad)
+  const bool step_ok = cold ? within(world_from_cam, start_world_from_cam,
+                                     options_.max_cold_offset_m, options_.max_cold_offset_rad)
+                            : within(world_from_cam, start_world_from_cam,
+                                     options_.max_tracking_step_m, options_.max_tracking_step_rad);
+  if (!step_ok || !within(world_from_cam, visual_world_from_cam, options_.max_offset_m,
+                          options_.max_offset_rad))
     return std::nullopt;
   return r;
 }
