@@ -9,6 +9,7 @@
 #include <memory>
 #include <opencv2/core/mat.hpp>
 #include <string>
+#include <vector>
 
 #include "slam/core/error.hpp"
 #include "slam/core/rigid.hpp"
@@ -135,6 +136,35 @@ int coloc_localizer_reset(coloc_localizer* h) {
   try {
     h->localizer->reset();
     return COLOC_LOCALIZE_OK;
+  } catch (const std::exception& e) {
+    return fail(h, COLOC_LOCALIZE_ERROR_INTERNAL, e.what());
+  }
+}
+
+int coloc_localizer_anchor_to_scan(coloc_localizer* h, const float* xyz, std::size_t count) {
+  if (!h) return COLOC_LOCALIZE_ERROR_INVALID_ARGUMENT;
+  h->error.clear();
+  if (!xyz || count == 0) {
+    if (xyz || count)
+      return fail(h, COLOC_LOCALIZE_ERROR_INVALID_ARGUMENT,
+                  "coloc_localizer_anchor_to_scan: xyz NULL with a count, or 0 "
+                  "points");
+    h->localizer->anchor_to_scan(nullptr);
+    return COLOC_LOCALIZE_OK;
+  }
+  try {
+    std::vector<Eigen::Vector3f> points(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      points[i] = Eigen::Vector3f(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+      if (!points[i].allFinite())
+        return fail(
+            h, COLOC_LOCALIZE_ERROR_INVALID_ARGUMENT,
+            "coloc_localizer_anchor_to_scan: point " + std::to_string(i) + " is not finite");
+    }
+    h->localizer->anchor_to_scan(std::make_shared<const coloc::slam::localize::ScanAnchor>(points));
+    return COLOC_LOCALIZE_OK;
+  } catch (const coloc::Error& e) {
+    return fail(h, COLOC_LOCALIZE_ERROR_INVALID_ARGUMENT, describe(e));
   } catch (const std::exception& e) {
     return fail(h, COLOC_LOCALIZE_ERROR_INTERNAL, e.what());
   }

@@ -83,6 +83,15 @@ COLOC_LOCALIZE_API int coloc_localizer_localize(coloc_localizer* localizer, cons
 /* Forget the motion: the next frame relocalizes in the whole map. */
 COLOC_LOCALIZE_API int coloc_localizer_reset(coloc_localizer* localizer);
 
+/* Anchors every later pose to the scan the map is registered to (coloc localize --scan; see
+ * slam/localize/scan_anchor.hpp): `xyz` holds `count` points, x y z interleaved, metres, in the
+ * map's frame (a laser scan thinned to about 1 cm is plenty). Each frame's depth is then aligned
+ * to the scan's surface and the aligned pose is returned; a frame the alignment refuses keeps
+ * its visual pose. `xyz` NULL (count 0) turns it off. Fails with INVALID_ARGUMENT for a
+ * non-finite point or a scan without planar surface; the handle is then as before. */
+COLOC_LOCALIZE_API int coloc_localizer_anchor_to_scan(coloc_localizer* localizer, const float* xyz,
+                                                      size_t count);
+
 /* Keyframes and points of the loaded map; the map's frame name ("slam", "scan", ...). */
 COLOC_LOCALIZE_API int coloc_localizer_map_info(const coloc_localizer* localizer,
                                                 uint64_t* keyframes, uint64_t* points,

@@ -29,6 +29,10 @@ int main(void) {
     printf("a NULL handle was not refused\n");
     return 1;
   }
+  if (coloc_localizer_anchor_to_scan(NULL, NULL, 0) != COLOC_LOCALIZE_ERROR_INVALID_ARGUMENT) {
+    printf("coloc_localizer_anchor_to_scan accepted a NULL handle\n");
+    return 1;
+  }
   coloc_localizer_close(NULL);
   /* The helpers of bindings in other languages: the struct's size and the status names. */
   if (coloc_localize_pose_size() != sizeof(coloc_localize_pose) ||

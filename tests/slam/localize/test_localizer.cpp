@@ -386,5 +386,43 @@ TEST(LocalizeCApi, LocalizesWithTheSettingsSavedInTheMap) {
   coloc_localizer_close(h);
 }
 
+// The anchor through the C ABI: the scan 3 cm off the map moves the poses by 3 cm; a NaN point
+// is refused with its index named, and the handle goes on as before.
+TEST(LocalizeCApi, AnchorsThePosesToAScan) {
+  char error[512];
+  const std::string vocabulary =
+      (test_support::source_dir() / "Vocabulary/coloc_orb_k10_L5.cvoc").string();
+  coloc_localizer* h =
+      coloc_localizer_open(fixture().map.c_str(), vocabulary.c_str(), nullptr, error, sizeof error);
+  ASSERT_NE(h, nullptr) << error;
+  const Inputs in = open_inputs();
+  const Eigen::Vector3d shift(0.03, -0.02, 0.01);
+  std::vector<float> xyz;
+  for (const Eigen::Vector3f& p : shifted_scan(in, shift))
+    xyz.insert(xyz.end(), {p.x(), p.y(), p.z()});
+  std::vector<float> bad = xyz;
+  bad[4] = std::nanf("");
+  EXPECT_EQ(coloc_localizer_anchor_to_scan(h, bad.data(), bad.size() / 3),
+            COLOC_LOCALIZE_ERROR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(coloc_localizer_last_error(h)).find("point 1 "), std::string::npos);
+  ASSERT_EQ(coloc_localizer_anchor_to_scan(h, xyz.data(), xyz.size() / 3), COLOC_LOCALIZE_OK)
+      << coloc_localizer_last_error(h);
+  for (std::size_t i = 40; i < 50; ++i) {
+    const dataset::Frame f = in.sequence->frame(i);
+    coloc_localize_pose pose{};
+    ASSERT_EQ(coloc_localizer_localize(
+                  h, f.color.data, f.color.cols, f.color.rows, f.color.channels(), f.color.step,
+                  reinterpret_cast<const float*>(f.depth.data), f.depth.step, f.timestamp, &pose),
+              COLOC_LOCALIZE_OK)
+        << coloc_localizer_last_error(h);
+    const auto m = mapped_pose(fixture().mapped, f.timestamp);
+    ASSERT_TRUE(m);
+    const Eigen::Vector3d c(pose.position[0], pose.position[1], pose.position[2]);
+    EXPECT_LT((c - (m->translation() + shift)).norm(), 0.008) << "frame " << i;
+  }
+  EXPECT_EQ(coloc_localizer_anchor_to_scan(h, nullptr, 0), COLOC_LOCALIZE_OK);
+  coloc_localizer_close(h);
+}
+
 }  // namespace
 }  // namespace coloc::slam::localize

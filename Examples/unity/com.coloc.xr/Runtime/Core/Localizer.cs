@@ -57,6 +57,17 @@ namespace Coloc
 
         public void Reset() => Check(NativeMethods.coloc_localizer_reset(handle), "reset");
 
+        // Anchors later poses to the scan the map is registered to: xyz holds x y z per point,
+        // metres, in the map's frame; each frame's depth is aligned to the scan's surface.
+        // null turns it off.
+        public void AnchorToScan(float[] xyz)
+        {
+            if (xyz != null && xyz.Length % 3 != 0)
+                throw new ArgumentException("xyz holds x y z per point: its length must be a multiple of 3");
+            Check(NativeMethods.coloc_localizer_anchor_to_scan(handle, xyz, (UIntPtr)(xyz == null ? 0 : xyz.Length / 3)),
+                  "anchor_to_scan");
+        }
+
         public void Dispose() => handle?.Dispose();
 
         bool Info(out ulong keyframes, out ulong points, out string frame)

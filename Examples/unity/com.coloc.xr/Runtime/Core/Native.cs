@@ -121,6 +121,8 @@ namespace Coloc.Native
         [DllImport(LocalizeLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int coloc_localizer_reset(LocalizerHandle localizer);
         [DllImport(LocalizeLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int coloc_localizer_anchor_to_scan(LocalizerHandle localizer, float[] xyz, UIntPtr count);
+        [DllImport(LocalizeLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int coloc_localizer_map_info(LocalizerHandle localizer, out ulong keyframes, out ulong points, byte[] frameName, UIntPtr frameNameSize);
         [DllImport(LocalizeLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern IntPtr coloc_localizer_last_error(LocalizerHandle localizer);

@@ -104,6 +104,10 @@ namespace Coloc.Tests
                 Assert.AreEqual(TrackingState.Lost, r.State);
                 var e = Assert.Throws<ColocException>(() => localizer.Localize(new byte[w * h * 3], w, h, 3, null, double.NaN));
                 StringAssert.Contains("COLOC_LOCALIZE_ERROR_INVALID_ARGUMENT", e.Message);
+                // The scan anchor: a NaN point is named, and the handle goes on.
+                e = Assert.Throws<ColocException>(() => localizer.AnchorToScan(new float[] { 0f, 0f, float.NaN }));
+                StringAssert.Contains("point 0 is not finite", e.Message);
+                localizer.AnchorToScan(null);
                 TestEnvironment.Report($"in-process localizer: map '{localizer.FrameName}', {localizer.Keyframes} keyframes, {localizer.Points} points");
             }
         }
