@@ -206,8 +206,9 @@ void Localizer::anchor(const cv::Mat& depth, LocalizationResult& r) {
   r.anchor_ms = watch.elapsed_ms();
   if (a)
     spdlog::debug(
-        "scan anchor: {} of {} depth samples on the surface, {} iterations, {:.1f} mm RMS",
-        a->inliers, a->samples, a->iterations, 1e3 * a->rms_m);
+        "scan anchor: {} of {} depth samples on the surface, {} iterations, {:.1f} mm RMS, "
+        "conditioning {:.4f}",
+        a->inliers, a->samples, a->iterations, 1e3 * a->rms_m, a->conditioning);
   stats_.anchor_ms.add(r.anchor_ms);
 }
 

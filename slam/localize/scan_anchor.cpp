@@ -184,8 +184,8 @@ std::optional<AnchorResult> ScanAnchor::align(const std::vector<Eigen::Vector3d>
     last = accumulate(grid_, points_cam, world_from_cam, gates[k], options_);
     ++iterations;
     if (last.inliers < options_.min_inliers) return std::nullopt;
-    // The prior's residual: this pose's left offset from the start, (omega, v).
-    const SE3 offset = world_from_cam * start_world_from_cam.inverse();
+    // The prior's residual: this pose's left offset from the visual pose, (omega, v).
+    const SE3 offset = world_from_cam * visual_world_from_cam.inverse();
     Vector6 e;
     e << offset.so3().log(), offset.translation();
     const Matrix6 h = last.h + Matrix6(prior_w.asDiagonal());
