@@ -344,12 +344,23 @@ TEST(Localizer, LoadingAMissingMapNamesTheFile) {
 
 // The C ABI (coloc_localize_c) on the same map, the settings taken from the map itself: a cold
 // start mid-walk, then tracking, poses on the mapped trajectory.
-TEST(LocalizeCApi, LocalizesWithTheSettingsSavedInTheMap) {
-  char error[512];
+// The fixture's map through the C ABI, with the shipped vocabulary and the settings in the map.
+coloc_localizer* open_fixture_through_c_api(char* error, std::size_t size) {
   const std::string vocabulary =
       (test_support::source_dir() / "Vocabulary/coloc_orb_k10_L5.cvoc").string();
-  coloc_localizer* h =
-      coloc_localizer_open(fixture().map.c_str(), vocabulary.c_str(), nullptr, error, sizeof error);
+  return coloc_localizer_open(fixture().map.c_str(), vocabulary.c_str(), nullptr, error, size);
+}
+
+// One frame through the C ABI, from the frame's own memory.
+int localize_through_c_api(coloc_localizer* h, const dataset::Frame& f, coloc_localize_pose& pose) {
+  return coloc_localizer_localize(h, f.color.data, f.color.cols, f.color.rows, f.color.channels(),
+                                  f.color.step, reinterpret_cast<const float*>(f.depth.data),
+                                  f.depth.step, f.timestamp, &pose);
+}
+
+TEST(LocalizeCApi, LocalizesWithTheSettingsSavedInTheMap) {
+  char error[512];
+  coloc_localizer* h = open_fixture_through_c_api(error, sizeof error);
   ASSERT_NE(h, nullptr) << error;
   std::uint64_t keyframes = 0, points = 0;
   char frame[32];
@@ -362,10 +373,7 @@ TEST(LocalizeCApi, LocalizesWithTheSettingsSavedInTheMap) {
   for (std::size_t i = 40; i < 50; ++i) {
     const dataset::Frame f = in.sequence->frame(i);
     coloc_localize_pose pose{};
-    ASSERT_EQ(coloc_localizer_localize(
-                  h, f.color.data, f.color.cols, f.color.rows, f.color.channels(), f.color.step,
-                  reinterpret_cast<const float*>(f.depth.data), f.depth.step, f.timestamp, &pose),
-              COLOC_LOCALIZE_OK)
+    ASSERT_EQ(localize_through_c_api(h, f, pose), COLOC_LOCALIZE_OK)
         << coloc_localizer_last_error(h);
     EXPECT_EQ(pose.state, i == 40 ? COLOC_LOCALIZE_RELOCALIZED : COLOC_LOCALIZE_TRACKING);
     const auto m = mapped_pose(fixture().mapped, f.timestamp);
@@ -390,10 +398,7 @@ TEST(LocalizeCApi, LocalizesWithTheSettingsSavedInTheMap) {
 // is refused with its index named, and the handle goes on as before.
 TEST(LocalizeCApi, AnchorsThePosesToAScan) {
   char error[512];
-  const std::string vocabulary =
-      (test_support::source_dir() / "Vocabulary/coloc_orb_k10_L5.cvoc").string();
-  coloc_localizer* h =
-      coloc_localizer_open(fixture().map.c_str(), vocabulary.c_str(), nullptr, error, sizeof error);
+  coloc_localizer* h = open_fixture_through_c_api(error, sizeof error);
   ASSERT_NE(h, nullptr) << error;
   const Inputs in = open_inputs();
   const Eigen::Vector3d shift(0.03, -0.02, 0.01);
@@ -410,10 +415,7 @@ TEST(LocalizeCApi, AnchorsThePosesToAScan) {
   for (std::size_t i = 40; i < 50; ++i) {
     const dataset::Frame f = in.sequence->frame(i);
     coloc_localize_pose pose{};
-    ASSERT_EQ(coloc_localizer_localize(
-                  h, f.color.data, f.color.cols, f.color.rows, f.color.channels(), f.color.step,
-                  reinterpret_cast<const float*>(f.depth.data), f.depth.step, f.timestamp, &pose),
-              COLOC_LOCALIZE_OK)
+    ASSERT_EQ(localize_through_c_api(h, f, pose), COLOC_LOCALIZE_OK)
         << coloc_localizer_last_error(h);
     const auto m = mapped_pose(fixture().mapped, f.timestamp);
     ASSERT_TRUE(m);
