@@ -79,6 +79,7 @@ class ReadAheadFrames final : public FrameSource {
   ReadAheadFrames(std::unique_ptr<FrameSource> source, std::size_t capacity)
       : source_(std::move(source)),
         source_remaining_(source_->remaining()),
+        counted_(source_remaining_ > 0),
         reader_([this] { return read(); }, capacity) {}
 
   std::optional<Frame> next() override {
@@ -89,8 +90,11 @@ class ReadAheadFrames final : public FrameSource {
     }
     return frame;
   }
-  // Frames not handed out yet: the source's own count plus those read and not handed out.
+  // Frames not handed out yet: the source's own count plus those read and not handed out. A
+  // source without a count (a camera, an endless generator) stays without one (0), however many
+  // frames the reader thread happens to hold: the answer must not depend on its progress.
   std::size_t remaining() const override {
+    if (!counted_) return 0;
     const std::lock_guard lock(count_mutex_);
     return source_remaining_ + read_ - handed_;
   }
@@ -112,6 +116,7 @@ class ReadAheadFrames final : public FrameSource {
   std::unique_ptr<FrameSource> source_;
   mutable std::mutex count_mutex_;
   std::size_t source_remaining_;       // the source's remaining() after its last read
+  const bool counted_;                 // the source gave a count when it was wrapped
   std::size_t read_ = 0, handed_ = 0;  // frames read from the source, handed out by next()
   std::atomic<std::size_t> skipped_{0};
   Prefetch<Frame> reader_;  // last: its thread reads the members above
