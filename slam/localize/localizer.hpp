@@ -123,7 +123,7 @@ struct LocalizerStats {
   std::int64_t first_localized_frame = -1;
   double ms_to_first_pose = 0.0;
   TimeHistogram total_ms;   // per frame, extraction included (bounded memory)
-  TimeHistogram anchor_ms;  // per anchored frame: the scan alignment
+  TimeHistogram anchor_ms;  // per frame the scan alignment ran on (accepted or refused)
 };
 
 class Localizer {
